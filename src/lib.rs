@@ -1,0 +1,23 @@
+//! isoc — a compiler and robust adaptive mesher for implicit surfaces.
+//!
+//! The modules follow the pipeline:
+//!
+//! ```text
+//! source ──syntax──▶ AST ──syntax::lower──▶ ir::Program ──▶ eval (reference interpreters)
+//!                                                       └──▶ jit (Cranelift kernels)
+//! ```
+//!
+//! The library never prints and never exits: every failure is a typed value
+//! ([`Error`]). The `isoc` binary ([`cli`]) is a thin layer over it.
+
+pub mod cli;
+pub mod error;
+pub mod eval;
+pub mod interval;
+pub mod ir;
+pub mod surface;
+pub mod syntax;
+
+pub use error::Error;
+pub use interval::Interval;
+pub use surface::{Bounds, CompileOptions, Surface};

@@ -1,0 +1,1 @@
+//! The front end: lexer, parser, name resolution, lowering to IR. (in progress)
