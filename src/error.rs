@@ -53,3 +53,20 @@ impl std::fmt::Display for Error {
 }
 
 impl std::error::Error for Error {}
+
+impl Error {
+    /// The error as the command line shows it (see the front end for the
+    /// source-located form).
+    pub fn render(&self) -> String {
+        match self {
+            Error::Source {
+                file, diagnostics, ..
+            } => diagnostics
+                .iter()
+                .map(|d| format!("{file}: error: {}\n", d.message))
+                .collect(),
+            Error::Usage(m) => format!("error: {m}\n"),
+            Error::Io { path, error } => format!("error: {path}: {error}\n"),
+        }
+    }
+}
