@@ -62,7 +62,11 @@ fn folding_keeps_the_real_value_enclosed() {
     let c = lit(&mut b, "0.2");
     let s = b.binary(BinOp::Add, a, c);
     let k = b.as_const(s).expect("folded");
-    assert_eq!(k.value, 0.1 + 0.2, "point value as the point evaluator computes it");
+    assert_eq!(
+        k.value,
+        0.1 + 0.2,
+        "point value as the point evaluator computes it"
+    );
     // The real 0.3 lies strictly between the f64 0.3 and the next one up.
     assert!(k.lo <= 0.3 && k.hi >= 0.3f64.next_up(), "{k:?}");
     // pi's enclosure contains the real π.
@@ -73,7 +77,10 @@ fn folding_keeps_the_real_value_enclosed() {
     let p = b.constant(pi);
     let sp = b.unary(UnOp::Sin, p);
     let k = b.as_const(sp).unwrap();
-    assert!(k.lo <= 0.0 && k.hi > 0.0, "sin over an enclosure of π: {k:?}");
+    assert!(
+        k.lo <= 0.0 && k.hi > 0.0,
+        "sin over an enclosure of π: {k:?}"
+    );
 }
 
 #[test]
@@ -112,7 +119,10 @@ fn text_form_round_trips() {
     let text = p.to_string();
     let back = text::parse(&text).unwrap();
     assert_eq!(back, p, "{text}");
-    assert!(text.contains("const 0.1 [0.09999999999999999, 0.1]"), "{text}");
+    assert!(
+        text.contains("const 0.1 [0.09999999999999999, 0.1]"),
+        "{text}"
+    );
 }
 
 #[test]

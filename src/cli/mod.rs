@@ -109,7 +109,9 @@ fn options(args: &SourceArgs) -> Result<CompileOptions, Error> {
             .parse()
             .map_err(|_| Error::Usage(format!("--set `{s}`: `{value}` is not a number")))?;
         if !v.is_finite() {
-            return Err(Error::Usage(format!("--set `{s}`: the value is not finite")));
+            return Err(Error::Usage(format!(
+                "--set `{s}`: the value is not finite"
+            )));
         }
         params.push((name.trim().to_string(), v));
     }
@@ -185,7 +187,9 @@ fn eval(
     let text = match bbox {
         Some(b) => {
             if !coords.is_empty() {
-                return Err(Error::Usage("give either X Y Z [T] or --box, not both".into()));
+                return Err(Error::Usage(
+                    "give either X Y Z [T] or --box, not both".into(),
+                ));
             }
             let b = Bounds::parse(b)?;
             let t = t.unwrap_or(0.0);
@@ -218,9 +222,16 @@ fn eval(
                 ));
             }
             if t.is_some() {
-                return Err(Error::Usage("--t goes with --box; give T after X Y Z".into()));
+                return Err(Error::Usage(
+                    "--t goes with --box; give T after X Y Z".into(),
+                ));
             }
-            let p = [coords[0], coords[1], coords[2], *coords.get(3).unwrap_or(&0.0)];
+            let p = [
+                coords[0],
+                coords[1],
+                coords[2],
+                *coords.get(3).unwrap_or(&0.0),
+            ];
             let (v, g) = surface.point_grad(p);
             if as_json {
                 json!({"value": num(v), "grad": g.map(num)}).to_string() + "\n"

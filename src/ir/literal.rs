@@ -149,7 +149,17 @@ mod tests {
 
     #[test]
     fn exact_literals_are_points() {
-        for t in ["2", "0.5", "1e3", ".25", "1.", "0", "000", "4503599627370496", "1.5e-1"] {
+        for t in [
+            "2",
+            "0.5",
+            "1e3",
+            ".25",
+            "1.",
+            "0",
+            "000",
+            "4503599627370496",
+            "1.5e-1",
+        ] {
             let c = Const::literal(t).unwrap();
             if t == "1.5e-1" {
                 assert!(!c.is_exact(), "{t}");

@@ -27,8 +27,9 @@
 use super::{BinOp, Builder, Op, UnOp, Value};
 
 fn is_num(b: &Builder, v: Value, x: f64) -> bool {
-    b.as_const(v)
-        .is_some_and(|c| c.is_exact() && c.value == x && c.value.is_sign_positive() == x.is_sign_positive())
+    b.as_const(v).is_some_and(|c| {
+        c.is_exact() && c.value == x && c.value.is_sign_positive() == x.is_sign_positive()
+    })
 }
 
 fn negated(b: &Builder, v: Value) -> Option<Value> {
