@@ -18,6 +18,7 @@ pub mod interval;
 pub mod io;
 pub mod ir;
 pub mod mesh;
+pub mod polygonize;
 pub mod octree;
 pub mod surface;
 pub mod syntax;

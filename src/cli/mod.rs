@@ -43,6 +43,13 @@ pub enum Command {
         #[arg(long, value_enum)]
         emit: Option<Emit>,
     },
+    /// Mesh the surface with the robust adaptive mesher.
+    Mesh {
+        #[command(flatten)]
+        source: SourceArgs,
+        #[command(flatten)]
+        mesh: MeshArgs,
+    },
     /// Value and gradient at a point, or their enclosures over a box.
     Eval {
         #[command(flatten)]
@@ -62,6 +69,41 @@ pub enum Command {
     },
 }
 
+/// Options of `isoc mesh`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct MeshArgs {
+    /// Maximal octree level.
+    #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u8).range(0..=20))]
+    pub level: u8,
+    /// Uniform subdivision level to start from (at most --level).
+    #[arg(long = "min-level", default_value_t = 3)]
+    pub min_level: u8,
+    /// Geometry criterion: subdivide while the normals' spread exceeds K.
+    #[arg(long, default_value_t = 1.0)]
+    pub kmax: f64,
+    /// Tangential smoothing passes.
+    #[arg(long, default_value_t = 2)]
+    pub smooth: usize,
+    /// Stricter topology test (Plantinga–Vegter small normal variation).
+    #[arg(long)]
+    pub certify: bool,
+    /// Time at which a surface in `t` is meshed.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub t: f64,
+    /// Output file: .ply, .obj, .stl or .glb (default: the input's stem .ply).
+    #[arg(short = 'o', long = "output")]
+    pub output: Option<PathBuf>,
+    /// Print statistics on stdout: `--stats json`.
+    #[arg(long, value_enum)]
+    pub stats: Option<StatsFormat>,
+}
+
+/// Formats of `--stats`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StatsFormat {
+    Json,
+}
+
 /// Stages `compile --emit` can print.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Emit {
@@ -73,6 +115,7 @@ pub enum Emit {
 pub fn run(cli: Cli, out: &mut dyn Write, err: &mut dyn Write) -> i32 {
     let result = match cli.command {
         Command::Compile { source, emit } => compile(&source, emit, out),
+        Command::Mesh { source, mesh } => mesh_command(&source, &mesh, out, err),
         Command::Eval {
             source,
             coords,
@@ -241,4 +284,113 @@ fn eval(
         }
     };
     write(out, &text)
+}
+
+fn mesh_command(
+    args: &SourceArgs,
+    m: &MeshArgs,
+    out: &mut dyn Write,
+    err: &mut dyn Write,
+) -> Result<(), Error> {
+    use crate::mesh::mesher::{self, MeshOptions, Stage};
+    use crate::octree::{OctreeOptions, TopologyTest};
+
+    if !(m.kmax.is_finite() && m.kmax > 0.0) {
+        return Err(Error::Usage(format!("--kmax {}: must be a positive number", m.kmax)));
+    }
+    if m.min_level > m.level {
+        return Err(Error::Usage(format!(
+            "--min-level {} is above --level {}",
+            m.min_level, m.level
+        )));
+    }
+    let output = match &m.output {
+        Some(p) => p.clone(),
+        None => args.file.with_extension("ply"),
+    };
+    // Fail on a bad extension before doing any work.
+    crate::io::Format::from_path(&output)?;
+
+    let t0 = std::time::Instant::now();
+    let surface = compile_file(args)?;
+    let compile_ms = t0.elapsed().as_secs_f64() * 1e3;
+
+    let bar = indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::stderr());
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} [{elapsed}] {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    let opts = MeshOptions {
+        octree: OctreeOptions {
+            max_level: m.level,
+            min_level: m.min_level,
+            kmax: m.kmax,
+            test: if m.certify {
+                TopologyTest::Certify
+            } else {
+                TopologyTest::Paper
+            },
+            t: m.t,
+        },
+        smooth: m.smooth,
+        domain: None,
+    };
+    let (mesh, report) = mesher::mesh(&surface, &opts, &|stage| {
+        bar.set_message(match stage {
+            Stage::Octree { level, cells } => {
+                format!("octree: level {level}, {cells} cells evaluated")
+            }
+            Stage::Dual => "dual grid".to_string(),
+            Stage::Polygonize => "polygonising".to_string(),
+            Stage::Smooth => "smoothing".to_string(),
+        })
+    });
+    bar.finish_and_clear();
+    crate::io::write_file(&mesh, &output)?;
+
+    let r = &report;
+    let summary = format!(
+        "{}: {} triangles, {} vertices, {} component(s), euler {}, {}, {}\n",
+        output.display(),
+        r.triangles,
+        r.vertices,
+        r.topology.components,
+        r.topology.euler,
+        if r.topology.watertight { "watertight" } else { "open" },
+        if r.guaranteed {
+            "topology guaranteed".to_string()
+        } else {
+            format!("{} ambiguous cell(s)", r.ambiguous_cells)
+        }
+    );
+    let _ = err.write_all(summary.as_bytes());
+    if m.stats == Some(StatsFormat::Json) {
+        let j = json!({
+            "triangles": r.triangles,
+            "vertices": r.vertices,
+            "aspect_good": num(r.aspect_good),
+            "components": r.topology.components,
+            "euler": r.topology.euler,
+            "genus": r.topology.genus,
+            "watertight": r.topology.watertight,
+            "ambiguous_cells": r.ambiguous_cells,
+            "guaranteed": r.guaranteed,
+            "max_level_reached": r.octree.max_level_reached,
+            "topology_test": if m.certify { "certify" } else { "paper" },
+            "boundary_edges": r.topology.boundary_edges,
+            "octree_nodes": r.octree.nodes,
+            "dual_cells": r.dual_cells,
+            "timings_ms": {
+                "compile": num(compile_ms),
+                "octree": num(r.timings.octree),
+                "dual": num(r.timings.dual),
+                "polygonize": num(r.timings.polygonize),
+                "smooth": num(r.timings.smooth),
+                "total": num(r.timings.total + compile_ms),
+            }
+        });
+        write(out, &(j.to_string() + "\n"))?;
+    }
+    Ok(())
 }

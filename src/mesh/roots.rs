@@ -71,11 +71,17 @@ pub fn bisect(f: &dyn Field, mut a: DVec3, mut b: DVec3, mut fa: f64, mut fb: f6
             break;
         }
     }
-    // The end whose value is nearer zero.
-    if f.value(a).abs() <= f.value(b).abs() {
-        a
-    } else {
-        b
+    // The end whose value is nearer zero — but not an end where f is
+    // exactly 0 when the other is not: such an end is usually a sample
+    // point (a leaf centre) shared by several brackets, and returning it
+    // would put several vertices at one position. The other end is within
+    // the bracket's final width (an ulp or so) of it.
+    let (va, vb) = (f.value(a), f.value(b));
+    match (va == 0.0, vb == 0.0) {
+        (true, false) => b,
+        (false, true) => a,
+        _ if va.abs() <= vb.abs() => a,
+        _ => b,
     }
 }
 
