@@ -134,11 +134,7 @@ pub fn powi(a: f64, n: i64) -> f64 {
         base = base * base;
     }
     let p = acc.unwrap_or(1.0);
-    if n < 0 {
-        binary(BinOp::Div, 1.0, p)
-    } else {
-        p
-    }
+    if n < 0 { binary(BinOp::Div, 1.0, p) } else { p }
 }
 
 /// The value of one instruction given the values before it.

@@ -35,7 +35,10 @@ pub fn add(a: Interval, b: Interval) -> Interval {
     if a.is_empty() || b.is_empty() {
         return Interval::EMPTY;
     }
-    Interval::new(round::add(a.lo, b.lo, Dir::Down), round::add(a.hi, b.hi, Dir::Up))
+    Interval::new(
+        round::add(a.lo, b.lo, Dir::Down),
+        round::add(a.hi, b.hi, Dir::Up),
+    )
 }
 
 /// `a − b`.

@@ -17,8 +17,8 @@
 //! holding four or more integers give the full range (`[-1, 1]`; entire and
 //! not defined for `tan`).
 
-use super::round::{self, Dir};
 use super::Interval;
+use super::round::{self, Dir};
 
 const TWO_POW_52: f64 = 4_503_599_627_370_496.0;
 
