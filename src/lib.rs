@@ -18,8 +18,8 @@ pub mod interval;
 pub mod io;
 pub mod ir;
 pub mod mesh;
-pub mod polygonize;
 pub mod octree;
+pub mod polygonize;
 pub mod surface;
 pub mod syntax;
 

@@ -47,7 +47,10 @@ fn check_closed(name: &str, s: &Surface, mesh: &Mesh, r: &MeshReport, genera: &[
         let (v, g) = field.gradient(p);
         let h = 1e-12 * (1.0 + p.abs().max_element());
         let bound = 8.0 * g.length() * h + 1e-300;
-        assert!(v.abs() <= bound.max(1e-9 * g.length()), "{name}: vertex {i} at {p} has f = {v}");
+        assert!(
+            v.abs() <= bound.max(1e-9 * g.length()),
+            "{name}: vertex {i} at {p} has f = {v}"
+        );
     }
     // Orientation: the area-weighted normals agree with the gradient.
     let mut agree = 0;
@@ -69,9 +72,16 @@ fn check_closed(name: &str, s: &Surface, mesh: &Mesh, r: &MeshReport, genera: &[
     );
     // No degenerate triangles, no duplicated vertices.
     for &tri in &mesh.triangles {
-        assert!(mesh.face_normal(tri).length() > 0.0, "{name}: zero-area triangle");
+        assert!(
+            mesh.face_normal(tri).length() > 0.0,
+            "{name}: zero-area triangle"
+        );
     }
-    let mut pos: Vec<[u64; 3]> = mesh.positions.iter().map(|p| p.to_array().map(f64::to_bits)).collect();
+    let mut pos: Vec<[u64; 3]> = mesh
+        .positions
+        .iter()
+        .map(|p| p.to_array().map(f64::to_bits))
+        .collect();
     pos.sort();
     let n = pos.len();
     pos.dedup();
@@ -103,7 +113,10 @@ fn sphere() {
     let (m, r) = run(&s, 6, TopologyTest::Paper, 2);
     check_closed("sphere", &s, &m, &r, &[0]);
     assert_eq!(r.topology.euler, 2);
-    assert!(r.guaranteed, "a sphere's gradient vanishes only at its centre");
+    assert!(
+        r.guaranteed,
+        "a sphere's gradient vanishes only at its centre"
+    );
 }
 
 #[test]
@@ -151,7 +164,8 @@ fn torus_with_a_thin_hole() {
 #[test]
 fn a_sphere_smaller_than_a_cell_is_never_dropped_silently() {
     // Finest cell 2/2^4 = 0.125; the sphere's radius is 0.02.
-    let s = surface("domain [-1, 1]^3; surface (x - 0.31)^2 + (y - 0.27)^2 + (z + 0.42)^2 - 0.0004;");
+    let s =
+        surface("domain [-1, 1]^3; surface (x - 0.31)^2 + (y - 0.27)^2 + (z + 0.42)^2 - 0.0004;");
     for test in [TopologyTest::Paper, TopologyTest::Certify] {
         let (_, r) = run(&s, 4, test, 0);
         assert!(

@@ -296,7 +296,10 @@ fn mesh_command(
     use crate::octree::{OctreeOptions, TopologyTest};
 
     if !(m.kmax.is_finite() && m.kmax > 0.0) {
-        return Err(Error::Usage(format!("--kmax {}: must be a positive number", m.kmax)));
+        return Err(Error::Usage(format!(
+            "--kmax {}: must be a positive number",
+            m.kmax
+        )));
     }
     if m.min_level > m.level {
         return Err(Error::Usage(format!(
@@ -315,7 +318,8 @@ fn mesh_command(
     let surface = compile_file(args)?;
     let compile_ms = t0.elapsed().as_secs_f64() * 1e3;
 
-    let bar = indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::stderr());
+    let bar =
+        indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::stderr());
     bar.set_style(
         indicatif::ProgressStyle::with_template("{spinner} [{elapsed}] {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
@@ -357,7 +361,11 @@ fn mesh_command(
         r.vertices,
         r.topology.components,
         r.topology.euler,
-        if r.topology.watertight { "watertight" } else { "open" },
+        if r.topology.watertight {
+            "watertight"
+        } else {
+            "open"
+        },
         if r.guaranteed {
             "topology guaranteed".to_string()
         } else {

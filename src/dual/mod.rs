@@ -105,8 +105,9 @@ impl<F: FnMut(DualCell)> Walker<'_, F> {
             }
         }
         let v: [u32; 8] = std::array::from_fn(|i| {
+            // Flip along `axis` only: the vertex is mid-face for a and b.
             let n = if i & bit != 0 { b } else { a };
-            self.child(n, i ^ 7)
+            self.child(n, i ^ bit)
         });
         self.vert(v);
     }
@@ -129,8 +130,10 @@ impl<F: FnMut(DualCell)> Walker<'_, F> {
             self.edge(sub, axis);
         }
         let v: [u32; 8] = std::array::from_fn(|i| {
+            // Flip across the edge (p, q), not along it: the vertex is the
+            // edge's midpoint for all four nodes.
             let k = ((i >> p) & 1) | (((i >> q) & 1) << 1);
-            self.child(n[k], i ^ 7)
+            self.child(n[k], i ^ ((1 << p) | (1 << q)))
         });
         self.vert(v);
     }

@@ -150,7 +150,10 @@ pub fn extract(
         .par_iter()
         .map(|k| match *k {
             Key::Edge(a, b) => {
-                let (pa, pb) = (tree.center(&nodes[a as usize]), tree.center(&nodes[b as usize]));
+                let (pa, pb) = (
+                    tree.center(&nodes[a as usize]),
+                    tree.center(&nodes[b as usize]),
+                );
                 let p = bisect(field, pa, pb, values[a as usize], values[b as usize]);
                 (p, ambiguous_leaf(a) || ambiguous_leaf(b))
             }

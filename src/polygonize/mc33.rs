@@ -181,11 +181,7 @@ impl Vertex {
 
 /// Position of corner `c` in cell coordinates.
 pub fn corner_position(c: u8) -> DVec3 {
-    DVec3::new(
-        (c & 1) as f64,
-        ((c >> 1) & 1) as f64,
-        ((c >> 2) & 1) as f64,
-    )
+    DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, ((c >> 2) & 1) as f64)
 }
 
 /// The trilinear interpolant of `v` at `p` (cell coordinates).
