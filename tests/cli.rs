@@ -209,7 +209,10 @@ fn mesh_stats_json_and_output_file() {
 
 #[test]
 fn mesh_default_output_is_the_stem_with_ply() {
-    let f = temp_file("stem.iso", b"domain [-1.3, 1.3]^3;\nsurface x^2 + y^2 + z^2 - 1;\n");
+    let f = temp_file(
+        "stem.iso",
+        b"domain [-1.3, 1.3]^3;\nsurface x^2 + y^2 + z^2 - 1;\n",
+    );
     let ply = f.with_extension("ply");
     let _ = std::fs::remove_file(&ply);
     let o = isoc(&["mesh", f.to_str().unwrap(), "--level", "4"]);
