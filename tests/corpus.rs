@@ -52,9 +52,23 @@ fn expectation(src: &str) -> Vec<(String, String)> {
 fn corpus_is_complete() {
     let names: Vec<String> = corpus().into_iter().map(|(n, _)| n).collect();
     for want in [
-        "torus_fig1", "heart", "heart6", "smile", "twotorus", "cyclide", "chair_left",
-        "chair_mid", "chair_right", "teardrop", "twoplanes", "sphere", "torus", "genus2",
-        "twospheres", "nested", "pulse",
+        "torus_fig1",
+        "heart",
+        "heart6",
+        "smile",
+        "twotorus",
+        "cyclide",
+        "chair_left",
+        "chair_mid",
+        "chair_right",
+        "teardrop",
+        "twoplanes",
+        "sphere",
+        "torus",
+        "genus2",
+        "twospheres",
+        "nested",
+        "pulse",
     ] {
         assert!(
             names.iter().any(|n| n.ends_with(&format!("/{want}.iso"))),
@@ -161,16 +175,27 @@ fn corpus_topology_matches_expectations() {
     let mut failures = Vec::new();
     for (name, src) in corpus() {
         let e = expectation(&src);
-        let get = |k: &str| e.iter().find(|(a, _)| a == k).map(|(_, v)| v.parse::<i64>().unwrap());
+        let get = |k: &str| {
+            e.iter()
+                .find(|(a, _)| a == k)
+                .map(|(_, v)| v.parse::<i64>().unwrap())
+        };
         let (Some(comp), Some(genus)) = (get("components"), get("genus")) else {
-            assert!(e.iter().any(|(k, _)| k == "singular"), "{name}: no topology");
+            assert!(
+                e.iter().any(|(k, _)| k == "singular"),
+                "{name}: no topology"
+            );
             continue;
         };
         let (c, g, touches) = topology(&src, 0.0, get("grid").unwrap_or(64) as usize);
         if (c, g, touches) != (comp, genus, false) {
             failures.push(format!(
                 "{name}: expected components={comp} genus={genus}, sampled {c} and {g}{}",
-                if touches { " (touches the domain boundary)" } else { "" }
+                if touches {
+                    " (touches the domain boundary)"
+                } else {
+                    ""
+                }
             ));
         }
     }

@@ -60,7 +60,10 @@ fn syntax_error() {
         &format!("{D}surface (x + ;"),
         &["test.iso:2:14: error: unexpected `;`"],
     );
-    assert!(r.contains("expected one of a name, a number, `-`, `(`"), "{r}");
+    assert!(
+        r.contains("expected one of a name, a number, `-`, `(`"),
+        "{r}"
+    );
 }
 
 #[test]
@@ -104,7 +107,10 @@ fn unknown_name_with_suggestion() {
         &["test.iso:3:15: error: unknown name `radus`"],
     );
     assert!(r.contains("help: did you mean `radius`?"), "{r}");
-    let r = expect(&format!("{D}surface qqq;"), &["test.iso:2:9: error: unknown name `qqq`"]);
+    let r = expect(
+        &format!("{D}surface qqq;"),
+        &["test.iso:2:9: error: unknown name `qqq`"],
+    );
     assert!(!r.contains("did you mean"), "{r}");
 }
 
@@ -224,7 +230,10 @@ fn duplicate_surface() {
 
 #[test]
 fn missing_domain() {
-    expect("surface x;", &["test.iso:1:1: error: missing `domain` statement"]);
+    expect(
+        "surface x;",
+        &["test.iso:1:1: error: missing `domain` statement"],
+    );
     // ... unless --domain is given
     let opts = CompileOptions {
         params: vec![],

@@ -87,7 +87,11 @@ fn exponential_inlining_is_an_error_not_a_hang() {
     let mut src = String::from(D);
     src.push_str("fn f0(u) = u*u;\n");
     for i in 1..40 {
-        src.push_str(&format!("fn f{i}(u) = f{}(u + 1) * f{}(u + 2);\n", i - 1, i - 1));
+        src.push_str(&format!(
+            "fn f{i}(u) = f{}(u + 1) * f{}(u + 2);\n",
+            i - 1,
+            i - 1
+        ));
     }
     src.push_str("surface f39(x);\n");
     assert!(!run(&src));
@@ -144,7 +148,9 @@ fn nul_bytes_and_empty_input() {
 
 #[test]
 fn invalid_utf8_everywhere() {
-    let bytes: Vec<u8> = (0..100_000).map(|i| if i % 2 == 0 { 0xff } else { b'x' }).collect();
+    let bytes: Vec<u8> = (0..100_000)
+        .map(|i| if i % 2 == 0 { 0xff } else { b'x' })
+        .collect();
     let start = Instant::now();
     let e = source_from_bytes(&bytes, "u.iso").unwrap_err();
     let _ = e.render();

@@ -36,11 +36,18 @@ fn precedence_and_associativity() {
 fn variables_and_builtins() {
     let [x, y, z, t] = P;
     assert!(close(val("x + 2*y - z*t", P), x + 2.0 * y - z * t));
-    assert!(close(val("sqrt(z) + abs(y) + sin(x) + cos(x) + tan(x)", P),
-        z.sqrt() + y.abs() + x.sin() + x.cos() + x.tan()));
-    assert!(close(val("asin(x) + acos(x) + atan(y) + atan2(y, x)", P),
-        x.asin() + x.acos() + y.atan() + y.atan2(x)));
-    assert!(close(val("exp(x) + log(z) + pow(z, 1.5)", P), x.exp() + z.ln() + z.powf(1.5)));
+    assert!(close(
+        val("sqrt(z) + abs(y) + sin(x) + cos(x) + tan(x)", P),
+        z.sqrt() + y.abs() + x.sin() + x.cos() + x.tan()
+    ));
+    assert!(close(
+        val("asin(x) + acos(x) + atan(y) + atan2(y, x)", P),
+        x.asin() + x.acos() + y.atan() + y.atan2(x)
+    ));
+    assert!(close(
+        val("exp(x) + log(z) + pow(z, 1.5)", P),
+        x.exp() + z.ln() + z.powf(1.5)
+    ));
     assert_eq!(val("min(3, x, y, z)", P), y);
     assert_eq!(val("max(x, y)", P), x);
     assert_eq!(val("max(x, y, z, t)", P), z);
@@ -50,7 +57,10 @@ fn variables_and_builtins() {
 
 #[test]
 fn number_literals() {
-    assert_eq!(val("2 + 0.5 + 1e-3 + .5 + 1. + 2E2 + 1.5e+1", P), 2.0 + 0.5 + 1e-3 + 0.5 + 1.0 + 200.0 + 15.0);
+    assert_eq!(
+        val("2 + 0.5 + 1e-3 + .5 + 1. + 2E2 + 1.5e+1", P),
+        2.0 + 0.5 + 1e-3 + 0.5 + 1.0 + 200.0 + 15.0
+    );
     // A literal that is not an f64 is enclosed, not rounded.
     let p = expr("0.1");
     let c = p.insts.iter().find_map(|op| match op {
@@ -78,7 +88,10 @@ fn statements() {
     let l = compile(src);
     assert_eq!(l.domain.lo, [-2.0, -3.0, -std::f64::consts::PI]);
     assert_eq!(l.domain.hi, [2.0, 3.0, 2.0 * std::f64::consts::PI]);
-    assert_eq!(l.params, vec![("r".into(), 1.5), ("s".into(), -2.0), ("q".into(), -3.0)]);
+    assert_eq!(
+        l.params,
+        vec![("r".into(), 1.5), ("s".into(), -2.0), ("q".into(), -3.0)]
+    );
     let [x, y, z, t] = P;
     let rho = x * x + y * y;
     let want = rho * rho + 1.5 - 2.0 + z + t - 3.0 - 1.0;
@@ -151,8 +164,15 @@ fn emit_ast_prints_structure() {
                 (fn f (u v) (/ (/ u v) 2))\n\
                 (surface (f a (^ 2 (^ 3 t))) 1)\n";
     assert_eq!(s, want);
-    let s = emit_ast("domain [0,1],[0,2],[0,3]; param p = -1.5; surface min(x,y,z);", "t.iso").unwrap();
-    assert_eq!(s, "(domain [0 1] [0 2] [0 3])\n(param p (neg 1.5))\n(surface (min x y z))\n");
+    let s = emit_ast(
+        "domain [0,1],[0,2],[0,3]; param p = -1.5; surface min(x,y,z);",
+        "t.iso",
+    )
+    .unwrap();
+    assert_eq!(
+        s,
+        "(domain [0 1] [0 2] [0 3])\n(param p (neg 1.5))\n(surface (min x y z))\n"
+    );
 }
 
 #[test]
@@ -167,6 +187,11 @@ fn sets_last_value_wins() {
         params: vec![("r".into(), 3.0), ("r".into(), 4.0)],
         domain: None,
     };
-    let l = front_end("domain [0,1]^3; param r = 1; surface x - r;", "f.iso", &opts).unwrap();
+    let l = front_end(
+        "domain [0,1]^3; param r = 1; surface x - r;",
+        "f.iso",
+        &opts,
+    )
+    .unwrap();
     assert_eq!(l.params, vec![("r".into(), 4.0)]);
 }

@@ -57,7 +57,13 @@ pub fn render(file: &str, source: &str, d: &Diagnostic, out: &mut String) {
     caret.push_str(&"^".repeat(width));
     let shown: String = text
         .chars()
-        .map(|c| if c.is_control() && c != '\t' { '\u{FFFD}' } else { c })
+        .map(|c| {
+            if c.is_control() && c != '\t' {
+                '\u{FFFD}'
+            } else {
+                c
+            }
+        })
         .collect();
     let _ = writeln!(out, "{pad} |");
     let _ = writeln!(out, "{num} | {shown}");

@@ -81,14 +81,16 @@ pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowe
         source_error(
             file,
             source,
-            vec![Diagnostic::new(
-                "the surface is too large (function calls are inlined at every use)",
-                span,
-            )
-            .with_note(format!(
-                "note: lowering it visits more than {} expression nodes",
-                lower::WORK_LIMIT
-            ))],
+            vec![
+                Diagnostic::new(
+                    "the surface is too large (function calls are inlined at every use)",
+                    span,
+                )
+                .with_note(format!(
+                    "note: lowering it visits more than {} expression nodes",
+                    lower::WORK_LIMIT
+                )),
+            ],
         )
     })?;
     Ok(Lowered {

@@ -61,10 +61,7 @@ pub const BUILTINS: [(&str, Builtin); 14] = [
 ];
 
 fn builtin(name: &str) -> Option<Builtin> {
-    BUILTINS
-        .iter()
-        .find(|(n, _)| *n == name)
-        .map(|&(_, b)| b)
+    BUILTINS.iter().find(|(n, _)| *n == name).map(|&(_, b)| b)
 }
 
 fn coordinate(name: &str) -> Option<Var> {
@@ -311,16 +308,14 @@ impl Resolver<'_> {
             let end = self.source.len();
             if first_domain.is_none() && opts.domain.is_none() {
                 self.diags.push(
-                    Diagnostic::new("missing `domain` statement", 0..0).with_note(
-                        "help: add one, e.g. `domain [-2, 2]^3;`, or give `--domain`",
-                    ),
+                    Diagnostic::new("missing `domain` statement", 0..0)
+                        .with_note("help: add one, e.g. `domain [-2, 2]^3;`, or give `--domain`"),
                 );
             }
             if first_surface.is_none() {
                 self.diags.push(
-                    Diagnostic::new("missing `surface` statement", end..end).with_note(
-                        "help: add one, e.g. `surface x^2 + y^2 + z^2 = 1;`",
-                    ),
+                    Diagnostic::new("missing `surface` statement", end..end)
+                        .with_note("help: add one, e.g. `surface x^2 + y^2 + z^2 = 1;`"),
                 );
             }
         }
@@ -406,7 +401,9 @@ impl Resolver<'_> {
                         format!("a domain needs three ranges, found {}", ranges.len()),
                         span,
                     )
-                    .with_note("help: write `domain [a, b]^3;` or `domain [a, b], [c, d], [e, f];`"),
+                    .with_note(
+                        "help: write `domain [a, b]^3;` or `domain [a, b], [c, d], [e, f];`",
+                    ),
                 );
             }
             None => {}
@@ -432,7 +429,10 @@ impl Resolver<'_> {
                 );
             } else if va == vb {
                 ok = false;
-                self.error(format!("empty domain: the range [{va}, {vb}] has zero width"), rspan);
+                self.error(
+                    format!("empty domain: the range [{va}, {vb}] has zero width"),
+                    rspan,
+                );
             }
             lo[i] = va;
             hi[i] = vb;
@@ -615,7 +615,10 @@ impl Resolver<'_> {
             if let Res::Fn(i) = g.res {
                 if matches!(ctx, Ctx::Const(_)) {
                     self.error(
-                        format!("{} must be constant: it may not call the function `{name}`", ctx_what(ctx)),
+                        format!(
+                            "{} must be constant: it may not call the function `{name}`",
+                            ctx_what(ctx)
+                        ),
                         span,
                     );
                     return Res::None;
@@ -638,10 +641,7 @@ impl Resolver<'_> {
         }
         if let Ctx::Fn { index, params } = ctx {
             if self.out.fns.len() == index && self.fn_name(index) == Some(name) {
-                self.error(
-                    format!("recursion: function `{name}` calls itself"),
-                    span,
-                );
+                self.error(format!("recursion: function `{name}` calls itself"), span);
                 return Res::None;
             }
             if params.iter().any(|p| p.name == name) {
@@ -657,8 +657,12 @@ impl Resolver<'_> {
                     return Res::None;
                 }
                 self.cycles.push(members);
-                let mut chain: Vec<String> = vec![format!("`{}`", self.fn_name(index).unwrap_or("?"))];
-                chain.extend(path.iter().map(|&k| format!("`{}`", self.fn_name(k).unwrap_or("?"))));
+                let mut chain: Vec<String> =
+                    vec![format!("`{}`", self.fn_name(index).unwrap_or("?"))];
+                chain.extend(
+                    path.iter()
+                        .map(|&k| format!("`{}`", self.fn_name(k).unwrap_or("?"))),
+                );
                 self.diags.push(
                     Diagnostic::new(
                         format!("recursion: {}", chain.join(" calls ")),
