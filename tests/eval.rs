@@ -38,7 +38,12 @@ fn prog(insts: Vec<Op>) -> Program {
 }
 
 fn boxed(x: Interval) -> [Interval; 4] {
-    [x, Interval::point(0.0), Interval::point(0.0), Interval::point(0.0)]
+    [
+        x,
+        Interval::point(0.0),
+        Interval::point(0.0),
+        Interval::point(0.0),
+    ]
 }
 
 #[test]
@@ -63,7 +68,10 @@ fn checks_catch_a_false_defined_flag() {
 #[test]
 fn checks_catch_a_wrong_gradient() {
     // x·x on [1, 2]: gradient 2x is never 0.
-    let p = prog(vec![Op::Var(Var::X), Op::Binary(BinOp::Mul, Value(0), Value(0))]);
+    let p = prog(vec![
+        Op::Var(Var::X),
+        Op::Binary(BinOp::Mul, Value(0), Value(0)),
+    ]);
     let b = boxed(Interval::new(1.0, 2.0));
     assert!(check_grad(&Reference(p.clone()), &p, &b, 3).is_ok());
     assert!(check_grad(&Broken(Reference(p.clone()), 0), &p, &b, 3).is_err());

@@ -11,7 +11,9 @@
 //!
 //! The checks are plain functions returning `Result<(), String>` so that the
 //! suite's own tests can show they fail on broken backends.
-#![allow(dead_code)]
+#![allow(dead_code, clippy::needless_range_loop)]
+
+pub mod exact;
 
 use isoc::eval::{Backend, Reference, grad, point};
 use isoc::interval::Interval;
@@ -112,7 +114,7 @@ fn arb_seed() -> impl Strategy<Value = Seed> {
 /// Picks an operand among the `n` values defined so far, mostly recent ones
 /// (so programs are deep), sometimes any.
 fn pick(sel: usize, n: usize) -> Value {
-    let i = if sel % 3 == 0 {
+    let i = if sel.is_multiple_of(3) {
         (sel / 3) % n
     } else {
         n - 1 - (sel / 3) % n.min(3)
@@ -130,7 +132,11 @@ fn build(seeds: Vec<Seed>, vars: usize) -> Program {
             Seed::WithConst(b, x, c, swap) => {
                 insts.push(Op::Const(c));
                 let (x, c) = (pick(x, n), Value(n as u32));
-                if swap { Op::Binary(b, c, x) } else { Op::Binary(b, x, c) }
+                if swap {
+                    Op::Binary(b, c, x)
+                } else {
+                    Op::Binary(b, x, c)
+                }
             }
             Seed::Powi(a, k) => Op::Powi(pick(a, n), k),
             Seed::Const(c) => Op::Const(c),
@@ -219,7 +225,12 @@ pub fn arb_interval() -> impl Strategy<Value = Interval> {
 
 /// A box `[x, y, z, t]`.
 pub fn arb_box() -> impl Strategy<Value = [Interval; 4]> {
-    [arb_interval(), arb_interval(), arb_interval(), arb_interval()]
+    [
+        arb_interval(),
+        arb_interval(),
+        arb_interval(),
+        arb_interval(),
+    ]
 }
 
 /// A point `[x, y, z, t]` (finite coordinates).
@@ -266,12 +277,20 @@ pub fn sample(iv: Interval, rng: &mut Rng) -> f64 {
         _ if iv.lo.is_finite() && iv.hi.is_finite() => iv.lo * (1.0 - u) + iv.hi * u,
         _ => {
             let m = 10f64.powf(u * 600.0 - 300.0);
-            let s = if rng.next_u64() % 2 == 0 { m } else { -m };
+            let s = if rng.next_u64().is_multiple_of(2) {
+                m
+            } else {
+                -m
+            };
             let c = centre(iv);
             c + s
         }
     };
-    if x.is_nan() { centre(iv) } else { x.clamp(iv.lo, iv.hi) }
+    if x.is_nan() {
+        centre(iv)
+    } else {
+        x.clamp(iv.lo, iv.hi)
+    }
 }
 
 /// Sample points of a box: every corner (infinite ones included), the
@@ -279,7 +298,9 @@ pub fn sample(iv: Interval, rng: &mut Rng) -> f64 {
 pub fn sample_points(b: &[Interval; 4], seed: u64, n: usize) -> Vec<[f64; 4]> {
     let mut out = Vec::with_capacity(17 + n);
     for mask in 0..16u32 {
-        out.push(std::array::from_fn(|i| if mask >> i & 1 == 0 { b[i].lo } else { b[i].hi }));
+        out.push(std::array::from_fn(|i| {
+            if mask >> i & 1 == 0 { b[i].lo } else { b[i].hi }
+        }));
     }
     out.push(b.map(centre));
     let mut rng = Rng(seed);
@@ -340,7 +361,10 @@ pub fn check_interval<B: Backend>(
         let want = oracle.point(p);
         let got = backend.point(p);
         if !same(want, got) {
-            return Err(format!("point value {got:e} != reference {want:e} at {p:?}\n{}", show(program, b)));
+            return Err(format!(
+                "point value {got:e} != reference {want:e} at {p:?}\n{}",
+                show(program, b)
+            ));
         }
         if !encloses(r.iv, want) {
             return Err(format!(
@@ -374,10 +398,17 @@ pub fn check_grad<B: Backend>(
         let (v, dv) = grad::eval_point(program, p);
         let pv = point::eval(program, p);
         if !same(v, pv) {
-            return Err(format!("eval_point value {v:e} != point value {pv:e} at {p:?}\n{}", show(program, b)));
+            return Err(format!(
+                "eval_point value {v:e} != point value {pv:e} at {p:?}\n{}",
+                show(program, b)
+            ));
         }
         if !encloses(g.value, v) {
-            return Err(format!("grad value {:?} misses {v:e} at {p:?}\n{}", g.value, show(program, b)));
+            return Err(format!(
+                "grad value {:?} misses {v:e} at {p:?}\n{}",
+                g.value,
+                show(program, b)
+            ));
         }
         for k in 0..3 {
             if !encloses(g.grad[k], dv[k]) {
@@ -390,7 +421,10 @@ pub fn check_grad<B: Backend>(
             }
         }
         if g.defined && undefined_at(program, p) {
-            return Err(format!("grad claims defined but f is undefined at {p:?}\n{}", show(program, b)));
+            return Err(format!(
+                "grad claims defined but f is undefined at {p:?}\n{}",
+                show(program, b)
+            ));
         }
     }
     Ok(())
@@ -398,21 +432,38 @@ pub fn check_grad<B: Backend>(
 
 /// The degenerate box `[p, p]`: interval and gradient kernels contain the
 /// point value and gradient at `p`.
-pub fn check_degenerate<B: Backend>(backend: &B, program: &Program, p: [f64; 4]) -> Result<(), String> {
+pub fn check_degenerate<B: Backend>(
+    backend: &B,
+    program: &Program,
+    p: [f64; 4],
+) -> Result<(), String> {
     let b = p.map(Interval::point);
     let v = point::eval(program, p);
     let r = backend.interval(b);
     if !encloses(r.iv, v) || !encloses(r.iv, backend.point(p)) {
-        return Err(format!("interval {:?} misses point value {v:e}\n{}", r, show(program, &b)));
+        return Err(format!(
+            "interval {:?} misses point value {v:e}\n{}",
+            r,
+            show(program, &b)
+        ));
     }
     let (gv, dv) = grad::eval_point(program, p);
     let g = backend.grad(b);
     if !encloses(g.value, gv) {
-        return Err(format!("grad value {:?} misses {gv:e}\n{}", g.value, show(program, &b)));
+        return Err(format!(
+            "grad value {:?} misses {gv:e}\n{}",
+            g.value,
+            show(program, &b)
+        ));
     }
     for k in 0..3 {
         if !encloses(g.grad[k], dv[k]) {
-            return Err(format!("partial {k} {:?} misses {:e}\n{}", g.grad[k], dv[k], show(program, &b)));
+            return Err(format!(
+                "partial {k} {:?} misses {:e}\n{}",
+                g.grad[k],
+                dv[k],
+                show(program, &b)
+            ));
         }
     }
     Ok(())
@@ -420,7 +471,10 @@ pub fn check_degenerate<B: Backend>(backend: &B, program: &Program, p: [f64; 4])
 
 /// Cases per property (at least 10,000; `PROPTEST_CASES` overrides).
 pub fn cases() -> u32 {
-    std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(10_000)
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(10_000)
 }
 
 /// The shared soundness suite, instantiated once per backend:
