@@ -152,7 +152,7 @@ fn build(seeds: Vec<Seed>, vars: usize) -> Program {
 /// size and sign. Domain edges (`sqrt(x)`, `log(x - 1)`, `1/x`) arise from
 /// binary ops with constant operands and from boxes touching 0 and ±1.
 pub fn arb_program() -> impl Strategy<Value = Program> {
-    (prop::collection::vec(arb_seed(), 1..10), 1usize..=4).prop_map(|(s, v)| build(s, v))
+    (prop::collection::vec(arb_seed(), 1..14), 1usize..=4).prop_map(|(s, v)| build(s, v))
 }
 
 // ---------------------------------------------------------------- boxes
@@ -270,10 +270,15 @@ pub fn centre(iv: Interval) -> f64 {
 /// A random point of an interval: uniform, near an end, or (for unbounded
 /// sides) at a random magnitude.
 pub fn sample(iv: Interval, rng: &mut Rng) -> f64 {
+    if iv.is_empty() || iv.lo.is_nan() || iv.hi.is_nan() {
+        return f64::NAN;
+    }
     let u = rng.unit();
-    let x = match rng.next_u64() % 6 {
+    let x = match rng.next_u64() % 8 {
         0 => iv.lo.next_up(),
         1 => iv.hi.next_down(),
+        // Domain edges and critical points, when inside.
+        2 => [0.0, 1.0, -1.0, std::f64::consts::FRAC_PI_2][(rng.next_u64() % 4) as usize],
         _ if iv.lo.is_finite() && iv.hi.is_finite() => iv.lo * (1.0 - u) + iv.hi * u,
         _ => {
             let m = 10f64.powf(u * 600.0 - 300.0);
