@@ -131,6 +131,37 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(cfg())]
+
+    /// Intervals around a critical point `kπ/2` of sin/cos/tan (extremum or
+    /// pole), for `k` up to ±10⁷: the values at the floats nearest to the
+    /// critical point must be enclosed, so a missed extremum is caught.
+    #[test]
+    fn trig_near_critical_points(k in -10_000_000i64..10_000_000, small in any::<bool>(),
+                                 w1 in 0.0f64..1e-3, w2 in 0.0f64..1e-3,
+                                 op in prop::sample::select(vec![UnOp::Sin, UnOp::Cos, UnOp::Tan])) {
+        let k = if small { k % 16 } else { k };
+        let x0 = k as f64 * FRAC_PI_2;
+        let a = iv(x0 - w1, x0 + w2);
+        let (r, defined) = interval::unary(op, a);
+        let mut x = x0;
+        for _ in 0..4 {
+            x = x.next_down();
+        }
+        for _ in 0..9 {
+            if a.contains(x) {
+                let v = point::unary(op, x);
+                prop_assert!(encloses(r, v), "{op:?}({a:?}) = {r:?} misses {op:?}({x:e}) = {v:e}");
+                if op == UnOp::Tan && k % 2 != 0 && w1 > 1e-6 && w2 > 1e-6 {
+                    prop_assert!(!defined, "tan over a pole claims defined: {a:?}");
+                }
+            }
+            x = x.next_up();
+        }
+    }
+}
+
 // ---------------------------------------------------------------- unit tests
 
 #[test]
