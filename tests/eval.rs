@@ -182,3 +182,22 @@ fn heart_surface_values() {
     let r = isoc::eval::interval::eval(&p, b);
     assert!(r.defined && r.iv.hi < 0.0, "{r:?}");
 }
+
+#[test]
+fn malformed_programs_do_not_panic() {
+    // v0 uses v5, which does not exist; the output is out of range too.
+    let p = Program {
+        insts: vec![Op::Unary(UnOp::Sin, Value(5))],
+        output: Value(0),
+    };
+    assert!(isoc::eval::point::eval(&p, [0.0; 4]).is_nan());
+    assert!(!isoc::eval::interval::eval(&p, boxed(Interval::point(0.0))).defined);
+    assert!(!isoc::eval::grad::eval(&p, boxed(Interval::point(0.0))).defined);
+    let q = Program {
+        output: Value(9),
+        ..p
+    };
+    assert!(isoc::eval::point::eval(&q, [0.0; 4]).is_nan());
+    assert!(!isoc::eval::interval::eval(&q, boxed(Interval::point(0.0))).defined);
+    assert!(isoc::eval::grad::eval_point(&q, [0.0; 4]).0.is_nan());
+}
