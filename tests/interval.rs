@@ -382,6 +382,16 @@ fn pow_is_defined_for_positive_bases_only() {
         (Interval::EMPTY, false)
     );
     assert!(point::binary(BinOp::Pow, -8.0, 1.0 / 3.0).is_nan());
+    // Reaching the domain edge from a signed zero: a^-3 → +∞ as a → 0⁺.
+    let (r, d) = interval::binary(BinOp::Pow, iv(-0.0, 2.0), iv(-3.0, -3.0));
+    assert!(!d && r.hi == f64::INFINITY && r.lo <= 0.125, "{r:?}");
+    let (r, _) = interval::binary(BinOp::Pow, iv(0.0, 2.0), iv(-1.0, 2.0));
+    assert_eq!(r, iv(0.0, f64::INFINITY));
+    // Exact corners stay tight.
+    assert_eq!(
+        interval::binary(BinOp::Pow, iv(1.0, 1.0), iv(-5.0, 7.0)),
+        (iv(1.0, 1.0), true)
+    );
     assert!(point::binary(BinOp::Pow, 0.0, 2.0).is_nan());
 }
 

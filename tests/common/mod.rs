@@ -160,6 +160,7 @@ pub fn arb_program() -> impl Strategy<Value = Program> {
 fn special_points() -> Vec<f64> {
     vec![
         0.0,
+        -0.0,
         1.0,
         -1.0,
         0.5,
@@ -211,7 +212,7 @@ pub fn arb_interval() -> impl Strategy<Value = Interval> {
         2 => arb_coord().prop_map(Interval::point),
         4 => (arb_coord(), width.clone(), width.clone())
             .prop_map(|(c, a, b)| Interval::new(c - a, c + b)),
-        2 => (prop::sample::select(vec![0.0, 1.0, -1.0]), width.clone(), any::<bool>())
+        2 => (prop::sample::select(vec![0.0, -0.0, 1.0, -1.0]), width.clone(), any::<bool>())
             .prop_map(|(e, w, below)| if below { Interval::new(e - w, e) } else { Interval::new(e, e + w) }),
         1 => (arb_coord(), any::<bool>()).prop_map(|(c, up)| if up {
             Interval::new(c, f64::INFINITY)
