@@ -45,7 +45,17 @@
 //! `log 1 = 0`, `sin 0 = 0`, …). `sin`/`cos`/`tan` decide which critical
 //! points `kπ/2` lie in the argument by an interval enclosure of `x·2/π`;
 //! when floating point cannot decide, the extremum (or pole) is included.
-//! See [`trig`].
+//! See [`trig`]. `pow` takes the hull of its four corners (it is monotone
+//! in each argument separately), see [`elementary::pow`].
+//!
+//! # Files
+//!
+//! [`round`]: outward rounding of single float operations; [`arith`]:
+//! `+ − × /`, min, max, abs, sqrt, integer powers; [`elementary`]: exp, log,
+//! asin, acos, atan, atan2, pow; [`trig`]: sin, cos, tan with range
+//! reduction. [`unary`], [`binary`] and [`powi`] below dispatch on the IR
+//! op and are what the evaluators, the constant folder and the JIT's
+//! transcendental helpers call.
 //!
 //! # Data layout
 //!
