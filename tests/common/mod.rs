@@ -96,6 +96,9 @@ enum Seed {
     WithConst(BinOp, usize, Const, bool),
     Powi(usize, i64),
     Const(Const),
+    /// A domain edge made likely: `log(a − 1)`, `1/a`, `sqrt(a − 1)`,
+    /// `asin(a − 1)`.
+    Edge(u8, usize),
 }
 
 fn arb_seed() -> impl Strategy<Value = Seed> {
@@ -108,6 +111,7 @@ fn arb_seed() -> impl Strategy<Value = Seed> {
             .prop_map(|(b, x, c, s)| Seed::WithConst(b, x, c, s)),
         2 => (any::<usize>(), arb_exponent()).prop_map(|(a, n)| Seed::Powi(a, n)),
         1 => arb_const().prop_map(Seed::Const),
+        2 => (0u8..4, any::<usize>()).prop_map(|(k, a)| Seed::Edge(k, a)),
     ]
 }
 
@@ -140,6 +144,19 @@ fn build(seeds: Vec<Seed>, vars: usize) -> Program {
             }
             Seed::Powi(a, k) => Op::Powi(pick(a, n), k),
             Seed::Const(c) => Op::Const(c),
+            Seed::Edge(k, a) => {
+                let a = pick(a, n);
+                insts.push(Op::Const(Const::exact(1.0)));
+                let one = Value(n as u32);
+                if k == 1 {
+                    Op::Binary(BinOp::Div, one, a)
+                } else {
+                    insts.push(Op::Binary(BinOp::Sub, a, one));
+                    let shifted = Value(n as u32 + 1);
+                    let u = [UnOp::Log, UnOp::Log, UnOp::Sqrt, UnOp::Asin][k as usize];
+                    Op::Unary(u, shifted)
+                }
+            }
         };
         insts.push(op);
     }
