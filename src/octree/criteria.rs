@@ -49,12 +49,17 @@ fn contains_zero(i: Interval) -> bool {
     i.lo <= 0.0 && 0.0 <= i.hi
 }
 
-/// Applies the three criteria to one evaluation.
-pub fn judge(g: &GradEval, test: TopologyTest, kmax: f64) -> Verdict {
+/// Applies the three criteria to one evaluation. `value_defined` says
+/// whether `F` itself is defined and continuous on the whole cell;
+/// `g.defined` may be false for a merely non-differentiable `F` (a `min`
+/// crease, `sqrt` at 0), whose gradient enclosure then encloses the
+/// generalised (Clarke) gradient — the hull of the one-sided gradients —
+/// which is what the topology and geometry tests need.
+pub fn judge(g: &GradEval, value_defined: bool, test: TopologyTest, kmax: f64) -> Verdict {
     // Written so that a NaN bound (which a sound kernel never returns) can
     // never discard a cell.
-    let empty = g.defined && (g.value.lo > 0.0 || g.value.hi < 0.0);
-    if empty || !g.defined {
+    let empty = value_defined && (g.value.lo > 0.0 || g.value.hi < 0.0);
+    if empty || !value_defined {
         return Verdict {
             empty,
             topology_ok: false,

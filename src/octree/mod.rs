@@ -162,13 +162,17 @@ impl Octree {
                 .par_iter()
                 .map(|&i| {
                     let (a, b) = tree.cell_box(&tree.nodes[i as usize]);
-                    let g = surface.grad([
+                    let cell = [
                         Interval { lo: a.x, hi: b.x },
                         Interval { lo: a.y, hi: b.y },
                         Interval { lo: a.z, hi: b.z },
                         t,
-                    ]);
-                    criteria::judge(&g, opts.test, opts.kmax)
+                    ];
+                    let g = surface.grad(cell);
+                    // The gradient kernel's flag also drops for a merely
+                    // non-differentiable F; ask the value kernel then.
+                    let value_defined = g.defined || surface.interval(cell).defined;
+                    criteria::judge(&g, value_defined, opts.test, opts.kmax)
                 })
                 .collect();
             evaluated += frontier.len();
