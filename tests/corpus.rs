@@ -3,9 +3,9 @@
 //! brute-force sampling of the lowered program: the solid {f < 0} is
 //! voxelised on a grid, and
 //!
-//! - surface components = components(inside, 26-connected)
-//!   + components(outside, 6-connected) − 1 (each closed surface separates
-//!   space, and the regions form a tree);
+//! - surface components = components(inside, 26-connected) plus
+//!   components(outside, 6-connected) minus 1 (each closed surface
+//!   separates space, and the regions form a tree);
 //! - total genus = components − χ(solid), since χ(∂S) = 2χ(S).
 //!
 //! The surface must also stay strictly inside the domain (no inside voxel on

@@ -76,7 +76,7 @@ pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowe
             ));
         }
     };
-    let program = lower::lower_surface(&ast, &r).map_err(|()| {
+    let program = lower::lower_surface(&ast, &r).map_err(|lower::TooLarge| {
         let span = r.surface.as_ref().map_or(0..0, |s| s.2.clone());
         source_error(
             file,
