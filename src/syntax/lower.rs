@@ -6,8 +6,8 @@
 //! `lhs - rhs`) with [`Builder`], inlining every function call. The walk is
 //! an explicit task stack, never recursion. Each `let` is lowered once
 //! (memoised), and so is each call of a function with the same argument
-//! values; a work budget ([`WORK_LIMIT`] nodes) turns pathological
-//! inlining blow-ups into an error instead of a hang.
+//! values; a work budget ([`WORK_LIMIT`] nodes of inlined bodies) turns
+//! pathological inlining blow-ups into an error instead of a hang.
 //!
 //! Literals become [`Const`]s enclosing their exact decimal value
 //! ([`Const::literal`]); `pi` is [`Const::pi`]; params are exact; `a ^ b` is [`Builder::power`],
@@ -26,9 +26,10 @@ use super::resolve::{Builtin, Res, Resolved};
 use crate::ir::{BinOp, Builder, Const, Program, UnOp, Value, Var};
 use std::collections::HashMap;
 
-/// Maximum number of AST nodes visited while lowering one program (function
-/// inlining can multiply the size of the source).
-pub const WORK_LIMIT: usize = 500_000;
+/// Maximum number of function-body nodes visited while lowering one program
+/// (inlining can multiply the size of the source exponentially; nodes outside
+/// function bodies are lowered once each and are not counted).
+pub const WORK_LIMIT: usize = 200_000;
 
 /// A lowering target.
 pub trait Sink {
@@ -214,17 +215,33 @@ fn walk<S: Sink>(
     let mut envs: Vec<Vec<S::V>> = vec![Vec::new()];
     let mut calls: HashMap<(usize, Vec<u64>), S::V> = HashMap::new();
     let mut vals: Vec<S::V> = Vec::new();
+    let mut literals: HashMap<&str, S::V> = HashMap::new();
     let mut tasks = vec![Task::Eval(root, 0)];
     while let Some(task) = tasks.pop() {
         match task {
             Task::Eval(id, env) => {
-                *work += 1;
-                if *work > WORK_LIMIT {
-                    return Err(());
+                // Top-level nodes are visited once each (lets are memoised),
+                // so only nodes of inlined function bodies count.
+                if env != 0 {
+                    *work += 1;
+                    if *work > WORK_LIMIT {
+                        return Err(());
+                    }
                 }
                 let r = res.get(id.index()).copied().unwrap_or(Res::None);
                 match &ast.expr(id).kind {
-                    ExprKind::Num(text) => vals.push(sink.literal(text)),
+                    ExprKind::Num(text) => {
+                        // Enclosing a literal exactly is not cheap: once per text.
+                        let v = match literals.get(text.as_str()) {
+                            Some(&v) => v,
+                            None => {
+                                let v = sink.literal(text);
+                                literals.insert(text.as_str(), v);
+                                v
+                            }
+                        };
+                        vals.push(v);
+                    }
                     ExprKind::Name(_) => {
                         let v = match r {
                             Res::Coord(v) => sink.var(v),

@@ -87,7 +87,7 @@ pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowe
                     span,
                 )
                 .with_note(format!(
-                    "note: lowering it visits more than {} expression nodes",
+                    "note: inlining visits more than {} nodes of function bodies",
                     lower::WORK_LIMIT
                 )),
             ],
