@@ -164,3 +164,15 @@ fn many_errors_are_capped() {
     assert!(headers(&r).len() <= isoc::syntax::MAX_DIAGNOSTICS + 1);
     assert!(r.contains("too many errors"), "{r}");
 }
+
+#[test]
+fn many_semantic_errors_stay_linear() {
+    let mut src = String::from(D);
+    for i in 0..10_000 {
+        src.push_str(&format!(
+            "let name{i} = nam{i} + g{i}(x) + later{i};\nfn f{i}(u) = h{i}(u);\n"
+        ));
+    }
+    src.push_str("surface x;\n");
+    assert!(!run(&src));
+}
