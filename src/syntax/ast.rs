@@ -130,6 +130,10 @@ pub struct Ast {
     pub stmts: Vec<Stmt>,
     /// Syntax errors found (and recovered from) while parsing.
     pub errors: Vec<Diagnostic>,
+    /// Every name that follows `let`, `param` or `fn` in the token stream,
+    /// including in statements that failed to parse: resolution does not
+    /// report such names as unknown (that error would only be a cascade).
+    pub declared: std::collections::HashSet<String>,
 }
 
 impl Ast {

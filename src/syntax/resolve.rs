@@ -162,6 +162,8 @@ struct Resolver<'a> {
     fn_names: Vec<String>,
     /// Byte offset of the start of every line.
     line_starts: Vec<usize>,
+    /// False when the file had syntax errors.
+    complete: bool,
 }
 
 /// Resolves and checks `ast`. `complete` is false when the file had syntax
@@ -188,6 +190,7 @@ pub fn resolve(
         fn_index: HashMap::new(),
         cycles: Vec::new(),
         fn_names: Vec::new(),
+        complete,
         line_starts: std::iter::once(0)
             .chain(source.match_indices('\n').map(|(i, _)| i + 1))
             .collect(),
@@ -202,6 +205,12 @@ impl Resolver<'_> {
     /// 1-based line number of byte `pos` (binary search in the line starts).
     fn line_of(&self, pos: usize) -> usize {
         self.line_starts.partition_point(|&s| s <= pos).max(1)
+    }
+
+    /// True when `name` is declared by a statement that failed to parse: an
+    /// "unknown name" error for it would only repeat that syntax error.
+    fn cascade(&self, name: &str) -> bool {
+        !self.complete && self.ast.declared.contains(name)
     }
 
     /// Whether to spend time on a "did you mean" search: not once the error
@@ -592,6 +601,9 @@ impl Resolver<'_> {
             );
             return Res::None;
         }
+        if self.cascade(name) {
+            return Res::None;
+        }
         let mut d = Diagnostic::new(format!("unknown name `{name}`"), span);
         if self.suggest()
             && let Some(c) = closest(name, self.visible(ctx, false))
@@ -703,6 +715,9 @@ impl Resolver<'_> {
             self.diags.push(Diagnostic::new(msg, span).with_note(format!(
                 "note: `{name}` is defined on line {line}; a function may only call functions defined before it"
             )));
+            return Res::None;
+        }
+        if self.cascade(name) {
             return Res::None;
         }
         let mut d = Diagnostic::new(format!("unknown function `{name}`"), span);
