@@ -7,7 +7,7 @@
 //! function's true range. Inputs are normalised intervals.
 
 use super::round::{self, Dir};
-use super::{HALF_PI_HI, Interval, PI_HI, arith};
+use super::{HALF_PI_HI, Interval, PI_HI};
 
 /// Lower and upper bound of `f(x)` for a correctly rounded `f`, exact when
 /// `x == exact_at` (where `f(exact_at)` is a float).
@@ -138,13 +138,31 @@ pub fn atan2(y: Interval, x: Interval) -> (Interval, bool) {
 }
 
 /// `pow(a, b) = exp(b · log a)` over the part of the box where `a > 0`.
+///
+/// For `a > 0`, `a^b` is monotone in `a` for each fixed `b` and monotone in
+/// `b` for each fixed `a` (the directions depend on the signs of `b` and of
+/// `log a`, but that does not matter): so its extremes over a rectangle are
+/// at corners, each enclosed by the correctly rounded `pow` one ulp outward.
+/// A lower corner `a = 0` (the box reaches the edge of the domain) stands
+/// for the limit `a → 0⁺`, and infinite corners for the limits at infinity,
+/// which is what IEEE `pow` returns there (`0^b` is `0`, `1` or `+∞`,
+/// `1^b = 1`, `a^0 = 1`, …); those limit values are exact.
 pub fn pow(a: Interval, b: Interval) -> (Interval, bool) {
-    if a.is_empty() || b.is_empty() {
+    if a.is_empty() || b.is_empty() || a.hi <= 0.0 {
         return (Interval::EMPTY, false);
     }
-    let (l, defined) = log(a);
-    if l.is_empty() {
-        return (Interval::EMPTY, false);
+    let defined = a.lo > 0.0;
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    // +0, never -0: IEEE pow(-0, -3) is -∞, the limit from a > 0 is +∞.
+    let a_lo = if a.lo > 0.0 { a.lo } else { 0.0 };
+    for x in [a_lo, a.hi] {
+        for y in [b.lo, b.hi] {
+            let r = core_math::pow(x, y);
+            let exact = x == 0.0 || x == 1.0 || y == 0.0 || x.is_infinite() || y.is_infinite();
+            lo = lo.min(round::cr(r, exact, Dir::Down));
+            hi = hi.max(round::cr(r, exact, Dir::Up));
+        }
     }
-    (exp(arith::mul(b, l)), defined)
+    (clamp(Interval::new(lo, hi), 0.0, f64::INFINITY), defined)
 }
