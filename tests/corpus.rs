@@ -150,10 +150,7 @@ fn topology(src: &str, t: f64, n: usize) -> (i64, i64, bool) {
     // Euler characteristic of the union of closed inside cubes: count the
     // cells of each dimension (keyed by doubled coordinates).
     let mut cells: [HashSet<(usize, usize, usize)>; 4] = Default::default();
-    for s in 0..n * n * n {
-        if !inside[s] {
-            continue;
-        }
+    for (s, _) in inside.iter().enumerate().filter(|(_, ins)| **ins) {
         let (i, j, k) = (s / (n * n), s / n % n, s % n);
         for a in 0..3 {
             for b in 0..3 {
