@@ -108,8 +108,13 @@ proptest! {
             let hi_b = Dyadic::of(q.hi).mul(db);
             prop_assert!(lo_b.cmp(da).is_le() && da.cmp(hi_b).is_le(), "{a:e} / {b:e} ∉ {q:?}");
         }
+        // Tightness: the error-free transformations give at most one ulp.
+        for r in [s, d, p, sq] {
+            prop_assert!(r.hi <= r.lo.next_up(), "{a:e}, {b:e}: {r:?} wider than one ulp");
+        }
         if a > 0.0 {
             let (r, _) = interval::unary(UnOp::Sqrt, pa);
+            prop_assert!(r.hi <= r.lo.next_up(), "√{a:e}: {r:?} wider than one ulp");
             let (l, h) = (Dyadic::of(r.lo), Dyadic::of(r.hi));
             prop_assert!(l.mul(l).cmp(da).is_le() && da.cmp(h.mul(h)).is_le(), "√{a:e} ∉ {r:?}");
         }
@@ -128,6 +133,8 @@ proptest! {
         }
         let (r, _) = interval::unary(op, Interval::point(x));
         prop_assert!(r.lo < v && v < r.hi, "{op:?}({x:e}) = {v:e}, bounds {r:?}");
+        // … and not wider than that (two ulps around the rounded value).
+        prop_assert!(r.lo.next_up() == v && r.hi.next_down() == v, "{op:?}({x:e}): {r:?} too wide");
     }
 }
 

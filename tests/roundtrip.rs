@@ -1,82 +1,248 @@
-//! Property tests of the parser: random expressions → parse → print as
-//! fully parenthesised infix → parse again gives the same tree and the same
-//! IR; the printed form is a fixed point.
+//! Random expression trees → printed as `.iso` source with the fewest
+//! parentheses the grammar allows → parsed and lowered by the front end →
+//! the same IR as building the tree directly with [`Builder`]. This checks
+//! precedence, associativity, literals, calls and lowering together.
+//!
+//! Programs are compared up to renumbering: each value gets a canonical id
+//! from its op and its operands' canonical ids (operands of commutative ops
+//! sorted), shared between the two programs.
 
-use isoc::CompileOptions;
-use isoc::syntax::ast::StmtKind;
-use isoc::syntax::{front_end, parser};
+use std::collections::HashMap;
+
+use isoc::ir::{BinOp, Builder, Const, Op, Program, UnOp, Value, Var};
+use isoc::{CompileOptions, Surface};
 use proptest::prelude::*;
 
-/// Random source text of an expression, with the loosest parentheses that
-/// keep the intended tree (so precedence and associativity get exercised).
-fn expr() -> impl Strategy<Value = String> {
+#[derive(Clone, Debug)]
+enum Expr {
+    Var(Var),
+    Num(String),
+    Pi,
+    Neg(Box<Expr>),
+    Bin(char, Box<Expr>, Box<Expr>),
+    /// `a ^ b` with `b` a printed exponent (possibly negative literal).
+    Pow(Box<Expr>, Box<Expr>),
+    Call(&'static str, Vec<Expr>),
+}
+
+const UNARY_FNS: [(&str, UnOp); 10] = [
+    ("sqrt", UnOp::Sqrt),
+    ("abs", UnOp::Abs),
+    ("sin", UnOp::Sin),
+    ("cos", UnOp::Cos),
+    ("tan", UnOp::Tan),
+    ("asin", UnOp::Asin),
+    ("acos", UnOp::Acos),
+    ("atan", UnOp::Atan),
+    ("exp", UnOp::Exp),
+    ("log", UnOp::Log),
+];
+const BINARY_FNS: [(&str, BinOp); 4] = [
+    ("atan2", BinOp::Atan2),
+    ("pow", BinOp::Pow),
+    ("min", BinOp::Min),
+    ("max", BinOp::Max),
+];
+
+fn arb_literal() -> impl Strategy<Value = String> {
+    prop_oneof![
+        (0u32..20).prop_map(|n| n.to_string()),
+        (0u32..1000, 1u32..4).prop_map(|(n, d)| format!(
+            "{}.{:0w$}",
+            n / 10,
+            n % 10,
+            w = d as usize
+        )),
+        (1u32..10, -5i32..5).prop_map(|(m, e)| format!("{m}e{e}")),
+        (1u32..100).prop_map(|n| format!(".{n}")),
+    ]
+}
+
+fn arb_expr() -> impl Strategy<Value = Expr> {
     let leaf = prop_oneof![
-        Just("x".to_string()),
-        Just("y".to_string()),
-        Just("z".to_string()),
-        Just("t".to_string()),
-        Just("pi".to_string()),
-        (0u32..100).prop_map(|n| n.to_string()),
-        (0u32..1000).prop_map(|n| format!("{}.{}", n / 100, n % 100)),
-        (1u32..9, -3i32..3).prop_map(|(m, e)| format!("{m}e{e}")),
-        (0u32..10).prop_map(|n| format!(".{n}")),
+        prop::sample::select(Var::ALL.to_vec()).prop_map(Expr::Var),
+        arb_literal().prop_map(Expr::Num),
+        Just(Expr::Pi),
     ];
-    leaf.prop_recursive(6, 64, 4, |inner| {
+    leaf.prop_recursive(6, 48, 3, |inner| {
         prop_oneof![
-            (inner.clone(), inner.clone(), 0usize..5, any::<bool>()).prop_map(|(a, b, op, p)| {
-                let op = ["+", "-", "*", "/", "^"][op];
-                // Sometimes drop the parentheses: the parser's precedence
-                // then decides the tree, which must still round-trip.
-                if p {
-                    format!("({a}) {op} ({b})")
-                } else {
-                    format!("{a} {op} {b}")
-                }
-            }),
-            inner.clone().prop_map(|a| format!("-{a}")),
-            inner.clone().prop_map(|a| format!("-({a})")),
-            (inner.clone(), 0usize..10).prop_map(|(a, f)| {
-                let f = [
-                    "sqrt", "abs", "sin", "cos", "tan", "asin", "acos", "atan", "exp", "log",
-                ][f];
-                format!("{f}({a})")
-            }),
-            (inner.clone(), inner.clone(), 0usize..4).prop_map(|(a, b, f)| {
-                let f = ["atan2", "pow", "min", "max"][f];
-                format!("{f}({a}, {b})")
-            }),
-            prop::collection::vec(inner, 2..5).prop_map(|v| format!("max({})", v.join(", "))),
+            inner.clone().prop_map(|a| Expr::Neg(Box::new(a))),
+            (
+                prop::sample::select(vec!['+', '-', '*', '/']),
+                inner.clone(),
+                inner.clone()
+            )
+                .prop_map(|(o, a, b)| Expr::Bin(o, Box::new(a), Box::new(b))),
+            (
+                inner.clone(),
+                prop_oneof![
+                    (-4i32..6).prop_map(|n| Expr::Num(n.to_string())),
+                    inner.clone(),
+                ]
+            )
+                .prop_map(|(a, b)| Expr::Pow(Box::new(a), Box::new(b))),
+            (
+                prop::sample::select(UNARY_FNS.map(|f| f.0).to_vec()),
+                inner.clone()
+            )
+                .prop_map(|(f, a)| Expr::Call(f, vec![a])),
+            (
+                prop::sample::select(BINARY_FNS.map(|f| f.0).to_vec()),
+                inner.clone(),
+                inner
+            )
+                .prop_map(|(f, a, b)| Expr::Call(f, vec![a, b])),
         ]
     })
 }
 
-/// The surface expression of `src`, printed as infix, and the s-expression
-/// of the whole file.
-fn reprint(src: &str) -> (String, String) {
-    let ast = parser::parse(src);
-    assert!(ast.errors.is_empty(), "{src}: {:?}", ast.errors);
-    let Some(StmtKind::Surface { lhs, .. }) = ast.stmts.last().map(|s| &s.kind) else {
-        panic!("no surface in {src}");
-    };
-    let mut out = String::new();
-    ast.print_infix(*lhs, &mut out);
-    (out, ast.print())
+/// Binding strength of an expression's top operator: 1 `+ -`, 2 `* /`,
+/// 3 unary minus, 4 `^`, 5 atoms.
+fn level(e: &Expr) -> u8 {
+    match e {
+        Expr::Bin('+' | '-', ..) => 1,
+        Expr::Bin(..) => 2,
+        Expr::Neg(_) => 3,
+        Expr::Pow(..) => 4,
+        Expr::Num(n) if n.starts_with('-') => 3,
+        _ => 5,
+    }
+}
+
+/// Prints `e`, parenthesised when it binds less tightly than `min`.
+fn print(e: &Expr, min: u8, out: &mut String) {
+    let paren = level(e) < min;
+    if paren {
+        out.push('(');
+    }
+    match e {
+        Expr::Var(v) => out.push_str(v.name()),
+        Expr::Num(n) => out.push_str(n),
+        Expr::Pi => out.push_str("pi"),
+        Expr::Neg(a) => {
+            out.push('-');
+            print(a, 3, out);
+        }
+        Expr::Bin(o, a, b) => {
+            let l = if matches!(o, '+' | '-') { 1 } else { 2 };
+            print(a, l, out);
+            out.push_str(&format!(" {o} "));
+            print(b, l + 1, out);
+        }
+        Expr::Pow(a, b) => {
+            print(a, 5, out);
+            out.push('^');
+            // Right-associative: the exponent may itself be a power; a
+            // signed exponent is allowed (`x^-2`).
+            match &**b {
+                Expr::Num(n) if n.starts_with('-') => out.push_str(n),
+                b => print(b, 4, out),
+            }
+        }
+        Expr::Call(f, args) => {
+            out.push_str(f);
+            out.push('(');
+            for (i, a) in args.iter().enumerate() {
+                if i > 0 {
+                    out.push_str(", ");
+                }
+                print(a, 1, out);
+            }
+            out.push(')');
+        }
+    }
+    if paren {
+        out.push(')');
+    }
+}
+
+fn build(e: &Expr, b: &mut Builder) -> Value {
+    match e {
+        Expr::Var(v) => b.var(*v),
+        Expr::Num(n) => match n.strip_prefix('-') {
+            Some(m) => {
+                let c = b.constant(Const::literal(m).unwrap());
+                b.unary(UnOp::Neg, c)
+            }
+            None => b.constant(Const::literal(n).unwrap()),
+        },
+        Expr::Pi => b.constant(Const::pi()),
+        Expr::Neg(a) => {
+            let a = build(a, b);
+            b.unary(UnOp::Neg, a)
+        }
+        Expr::Bin(o, x, y) => {
+            let x = build(x, b);
+            let y = build(y, b);
+            let op = match o {
+                '+' => BinOp::Add,
+                '-' => BinOp::Sub,
+                '*' => BinOp::Mul,
+                _ => BinOp::Div,
+            };
+            b.binary(op, x, y)
+        }
+        Expr::Pow(x, y) => {
+            let x = build(x, b);
+            let y = build(y, b);
+            b.power(x, y)
+        }
+        Expr::Call(f, args) => {
+            let vs: Vec<Value> = args.iter().map(|a| build(a, b)).collect();
+            if let Some((_, u)) = UNARY_FNS.iter().find(|(n, _)| n == f) {
+                b.unary(*u, vs[0])
+            } else {
+                let (_, o) = BINARY_FNS.iter().find(|(n, _)| n == f).unwrap();
+                if *o == BinOp::Pow {
+                    // The built-in `pow` means the same as `^`.
+                    b.power(vs[0], vs[1])
+                } else {
+                    b.binary(*o, vs[0], vs[1])
+                }
+            }
+        }
+    }
+}
+
+/// Canonical ids of every value of `p`, interned in `table`.
+fn canonical(p: &Program, table: &mut HashMap<String, usize>) -> usize {
+    let mut ids: Vec<usize> = Vec::with_capacity(p.len());
+    for op in &p.insts {
+        let key = match *op {
+            Op::Var(v) => format!("var {}", v.name()),
+            Op::Const(c) => format!("const {c}"),
+            Op::Unary(u, a) => format!("{} {}", u.name(), ids[a.index()]),
+            Op::Powi(a, n) => format!("powi {} {n}", ids[a.index()]),
+            Op::Binary(o, a, b) => {
+                let (mut x, mut y) = (ids[a.index()], ids[b.index()]);
+                if o.is_commutative() && y < x {
+                    std::mem::swap(&mut x, &mut y);
+                }
+                format!("{} {x} {y}", o.name())
+            }
+        };
+        let n = table.len();
+        ids.push(*table.entry(key).or_insert(n));
+    }
+    ids[p.output.index()]
 }
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(10_000))]
 
     #[test]
-    fn print_parse_roundtrip(e in expr()) {
-        let src = format!("domain [-1, 1]^3;\nsurface {e};\n");
-        let (printed, sexpr) = reprint(&src);
-        let src2 = format!("domain [-1, 1]^3;\nsurface {printed};\n");
-        let (printed2, sexpr2) = reprint(&src2);
-        prop_assert_eq!(&sexpr, &sexpr2);
-        prop_assert_eq!(&printed, &printed2);
-        let opts = CompileOptions::default();
-        let p1 = front_end(&src, "a.iso", &opts).map_err(|e| TestCaseError::fail(e.render()))?;
-        let p2 = front_end(&src2, "b.iso", &opts).map_err(|e| TestCaseError::fail(e.render()))?;
-        prop_assert_eq!(p1.program, p2.program);
+    fn printed_source_lowers_to_the_same_ir(e in arb_expr()) {
+        let mut text = String::new();
+        print(&e, 1, &mut text);
+        let source = format!("domain [-1, 1]^3;\nsurface {text};\n");
+        let surface = Surface::compile(&source, "gen.iso", &CompileOptions::default())
+            .map_err(|err| TestCaseError::fail(format!("{}\n{source}", err.render())))?;
+        let mut b = Builder::new();
+        let out = build(&e, &mut b);
+        let direct = b.finish(out);
+        let mut table = HashMap::new();
+        let got = canonical(&surface.program, &mut table);
+        let want = canonical(&direct, &mut table);
+        prop_assert_eq!(got, want, "source: {}\nparsed:\n{}\ndirect:\n{}", source, surface.program, direct);
     }
 }
