@@ -97,7 +97,8 @@ pub fn normal_spread(grad: [Interval; 3]) -> f64 {
         norm2 = interval::binary(BinOp::Add, norm2, s).0;
     }
     let (norm, _) = interval::unary(UnOp::Sqrt, norm2);
-    if !(norm.lo > 0.0) {
+    // (`<=` would let a NaN bound through.)
+    if norm.lo.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return f64::INFINITY;
     }
     let mut widest = 0.0f64;

@@ -38,6 +38,10 @@ enum Key {
     Interior(u32, u8),
 }
 
+/// One cell's triangles over keys, its interior vertices with their
+/// positions, and how many degenerate triangles it dropped.
+type CellOutput = (Vec<[Key; 3]>, Vec<(Key, DVec3)>, usize);
+
 /// Counts of the extraction.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ExtractStats {
@@ -90,7 +94,7 @@ pub fn extract(
         ..ExtractStats::default()
     };
     // Polygonise every active cell into triangles over keys.
-    let per_cell: Vec<(Vec<[Key; 3]>, Vec<(Key, DVec3)>, usize)> = active
+    let per_cell: Vec<CellOutput> = active
         .par_iter()
         .enumerate()
         .map(|(ci, cell)| {
