@@ -1,0 +1,13 @@
+//! Polygonisation of (dual) cells.
+//!
+//! * [`mc33`]: the topologically correct Marching Cubes 33 polygoniser of one
+//!   cube cell given its 8 corner values (Lewiner et al. 2003; Chernyaev
+//!   1995), derived procedurally from the trilinear interpolant rather than
+//!   from a case table. Degenerate dual cells (Paiva et al. 2006, §4.3:
+//!   corners repeated where octree leaves of different sizes meet) need
+//!   nothing special: their key is the 8 values with the repeated corners'
+//!   values duplicated.
+//! * [`topology`]: components and Euler characteristic of a triangle set with
+//!   shared vertex ids (used by the verification and the mesh statistics).
+pub mod mc33;
+pub mod topology;
