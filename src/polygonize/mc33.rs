@@ -29,8 +29,14 @@
 //! (`EDGE_CORNERS[e][0]`) to its upper corner. There is at most one vertex per
 //! edge, so a mesher can key it by edge (e.g. by the pair of octree leaves)
 //! and share it with the neighbouring cells. Interior vertices
-//! [`Vertex::Interior`] (only created when a boundary loop cannot be fanned
-//! with consistently oriented triangles) are points in cell coordinates.
+//! [`Vertex::Interior`] are points in cell coordinates placed on `T = 0` by
+//! a few Newton steps; they are created only when a boundary loop cannot be
+//! fanned with triangles facing along `∇T`, and for the waist ring of a
+//! poorly stitched tube (about 1 % of random cells have one).
+//!
+//! The result is a fixed-capacity [`CellMesh`] (at most [`MAX_VERTS`]
+//! vertices and [`MAX_TRIS`] triangles, no allocation); a call costs about
+//! 3 µs on a random cell in release builds.
 //!
 //! Faces are numbered `2 * axis + side` (`side` 0 ⇔ that coordinate is 0).
 //!
@@ -89,9 +95,12 @@
 //!    identified by the pair (negative region, positive region) on its two
 //!    sides, and loops with the same pair belong to the same component. In a
 //!    trilinear cell each component is a disc (one loop) or a tube (two
-//!    loops: the tunnels of MC33); a disc is fanned from one of its vertices
-//!    (or from an interior vertex projected onto `T = 0` when no fan is
-//!    consistently oriented) and a tube is stitched between its two loops.
+//!    loops: the tunnels of MC33) — the classical case analysis, confirmed by
+//!    the verification below; should rounding ever group three loops, they
+//!    are closed as separate discs. A disc is fanned from the vertex that
+//!    orients its triangles best (or from an interior vertex when no fan
+//!    faces along `∇T`); a tube is stitched between its two loops along the
+//!    best-oriented walk, with a waist ring when that walk is still poor.
 //!
 //! The verification in `tests/mc33.rs` follows Etiene et al., *Topology
 //! verification for isosurface extraction* (TVCG 2012): components and Euler
