@@ -15,6 +15,7 @@ pub mod error;
 pub mod eval;
 pub mod interval;
 pub mod ir;
+pub mod jit;
 pub mod surface;
 pub mod syntax;
 

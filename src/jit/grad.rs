@@ -1,0 +1,107 @@
+//! Lowering of a [`Program`] to the interval-gradient body: forward-mode
+//! automatic differentiation over intervals.
+//!
+//! Each IR value becomes four intervals `(F, Fx, Fy, Fz)` (eight f64 SSA
+//! values); `var x` is `(X, [1,1], [0,0], [0,0])` (likewise `y`, `z`; `t`
+//! has a zero gradient), constants have a zero gradient. `add sub neg mul
+//! square` and `var`/`const` are inline, with the interval kernel's outward
+//! rounded rules ([`super::interval`]); every other op spills its operands
+//! to a stack slot and calls a chain-rule helper ([`super::helpers`]) built
+//! on [`crate::interval`]'s enclosures.
+//!
+//! The decoration is false when some op was not defined, continuous *or
+//! differentiable* on the whole box (`abs`, `min`, `max` at a kink, `sqrt`
+//! at 0, …).
+
+use cranelift_codegen::ir::{InstBuilder, Value, types};
+
+use super::Env;
+use super::interval::{self, Iv};
+use crate::ir::{BinOp, Op, Program, UnOp};
+
+/// `(F, Fx, Fy, Fz)`.
+pub(super) type Dual = [Iv; 4];
+
+/// Emits the body; returns the output tuple and the decoration (i8).
+pub(super) fn lower(env: &mut Env, prog: &Program, input: [Iv; 4]) -> (Dual, Value) {
+    let mut ok = env.b.ins().iconst(types::I8, 1);
+    let zero = env.b.ins().f64const(0.0);
+    let one = env.b.ins().f64const(1.0);
+    let z = (zero, zero);
+    let mut vals: Vec<Dual> = Vec::with_capacity(prog.len());
+    for (i, op) in prog.insts.iter().enumerate() {
+        let (v, d): (Dual, Option<Value>) = match *op {
+            Op::Var(var) => {
+                let mut g = [input[var.index()], z, z, z];
+                if var.index() < 3 {
+                    g[1 + var.index()] = (one, one);
+                }
+                (g, None)
+            }
+            Op::Const(_) => {
+                let (v, d) = interval::lower_op(env, i, op, &[], &input);
+                ([v, z, z, z], d)
+            }
+            Op::Unary(UnOp::Neg, a) => {
+                let a = vals[a.index()];
+                (
+                    a.map(|(l, h)| (env.b.ins().fneg(h), env.b.ins().fneg(l))),
+                    None,
+                )
+            }
+            Op::Unary(UnOp::Square, a) => {
+                let a = vals[a.index()];
+                let (f, _) = interval::unary(env, UnOp::Square, a[0]);
+                // d(a²) = (2a)·da; doubling is exact (or overflows to ±∞,
+                // which is still an enclosure).
+                let two_a = (
+                    env.b.ins().fadd(a[0].0, a[0].0),
+                    env.b.ins().fadd(a[0].1, a[0].1),
+                );
+                let mut g = [f, z, z, z];
+                for k in 1..4 {
+                    g[k] = interval::mul(env, two_a, a[k]);
+                }
+                (g, None)
+            }
+            Op::Binary(op @ (BinOp::Add | BinOp::Sub | BinOp::Mul), a, b) => {
+                let (a, b) = (vals[a.index()], vals[b.index()]);
+                let mut g = [z; 4];
+                if op == BinOp::Mul {
+                    g[0] = interval::mul(env, a[0], b[0]);
+                    for k in 1..4 {
+                        let p = interval::mul(env, a[0], b[k]);
+                        let q = interval::mul(env, a[k], b[0]);
+                        g[k] = interval::binary(env, BinOp::Add, p, q).0;
+                    }
+                } else {
+                    for k in 0..4 {
+                        g[k] = interval::binary(env, op, a[k], b[k]).0;
+                    }
+                }
+                (g, None)
+            }
+            Op::Unary(u, a) => env.call_gd(super::helpers::unop_code(u), vals[a.index()], None, 0),
+            Op::Binary(op, a, b) => env.call_gd(
+                super::helpers::binop_code(op) + GD_BINARY_BASE,
+                vals[a.index()],
+                Some(vals[b.index()]),
+                0,
+            ),
+            Op::Powi(a, n) => env.call_gd(
+                super::helpers::GD_POWI_CODE + GD_BINARY_BASE,
+                vals[a.index()],
+                None,
+                n,
+            ),
+        };
+        if let Some(d) = d {
+            ok = env.b.ins().band(ok, d);
+        }
+        vals.push(v);
+    }
+    (vals[prog.output.index()], ok)
+}
+
+/// Codes at or above this go to the binary gradient helper (minus it).
+pub(super) const GD_BINARY_BASE: u32 = 1 << 16;
