@@ -55,16 +55,23 @@ impl std::fmt::Display for Error {
 impl std::error::Error for Error {}
 
 impl Error {
-    /// The error as the command line shows it (see the front end for the
-    /// source-located form).
+    /// The error as the command line shows it, without colours: for a
+    /// source error, each diagnostic as `FILE:LINE:COL: error: MESSAGE`, the
+    /// source line, a caret under the span and the notes (see
+    /// [`crate::syntax::diag`]).
     pub fn render(&self) -> String {
         match self {
             Error::Source {
-                file, diagnostics, ..
-            } => diagnostics
-                .iter()
-                .map(|d| format!("{file}: error: {}\n", d.message))
-                .collect(),
+                file,
+                source,
+                diagnostics,
+            } => {
+                let mut out = String::new();
+                for d in diagnostics {
+                    crate::syntax::diag::render(file, source, d, &mut out);
+                }
+                out
+            }
             Error::Usage(m) => format!("error: {m}\n"),
             Error::Io { path, error } => format!("error: {path}: {error}\n"),
         }

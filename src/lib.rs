@@ -11,11 +11,16 @@
 //! ([`Error`]). The `isoc` binary ([`cli`]) is a thin layer over it.
 
 pub mod cli;
+pub mod dual;
 pub mod error;
 pub mod eval;
 pub mod interval;
+pub mod io;
 pub mod ir;
 pub mod jit;
+pub mod mesh;
+pub mod octree;
+pub mod polygonize;
 pub mod surface;
 pub mod syntax;
 

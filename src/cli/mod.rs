@@ -1,1 +1,404 @@
-//! The command line. (in progress)
+//! The command line (SPEC §2): argument definitions and one function per
+//! subcommand. Commands write to the `out`/`err` streams they are given and
+//! return the process exit status; only `main` touches the real process.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use serde_json::{Value as Json, json};
+
+use crate::error::Error;
+use crate::interval::Interval;
+use crate::surface::{Bounds, CompileOptions, Surface};
+
+/// isoc — compile and mesh implicit surfaces.
+#[derive(Parser, Debug)]
+#[command(name = "isoc", version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Options shared by the commands that compile a file.
+#[derive(clap::Args, Debug, Clone)]
+pub struct SourceArgs {
+    /// The `.iso` file.
+    pub file: PathBuf,
+    /// Override a `param` (repeatable): `--set r=1.5`.
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    pub set: Vec<String>,
+    /// The domain `a,b,c,d,e,f` = [a,b]×[c,d]×[e,f]; replaces the file's.
+    #[arg(long, value_name = "a,b,c,d,e,f", allow_hyphen_values = true)]
+    pub domain: Option<String>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Check a file, build its IR and print a summary (or one stage).
+    Compile {
+        #[command(flatten)]
+        source: SourceArgs,
+        /// Print one stage instead of the summary.
+        #[arg(long, value_enum)]
+        emit: Option<Emit>,
+    },
+    /// Mesh the surface with the robust adaptive mesher.
+    Mesh {
+        #[command(flatten)]
+        source: SourceArgs,
+        #[command(flatten)]
+        mesh: MeshArgs,
+    },
+    /// Value and gradient at a point, or their enclosures over a box.
+    Eval {
+        #[command(flatten)]
+        source: SourceArgs,
+        /// The point: X Y Z [T].
+        #[arg(allow_negative_numbers = true, num_args = 0..=4)]
+        coords: Vec<f64>,
+        /// A box `a,b,c,d,e,f` instead of a point.
+        #[arg(long = "box", value_name = "a,b,c,d,e,f", allow_hyphen_values = true)]
+        bbox: Option<String>,
+        /// Time for `--box` evaluation (default 0).
+        #[arg(long, allow_negative_numbers = true)]
+        t: Option<f64>,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// Options of `isoc mesh`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct MeshArgs {
+    /// Maximal octree level.
+    #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u8).range(0..=20))]
+    pub level: u8,
+    /// Uniform subdivision level to start from (at most --level).
+    #[arg(long = "min-level", default_value_t = 3)]
+    pub min_level: u8,
+    /// Geometry criterion: subdivide while the normals' spread exceeds K.
+    #[arg(long, default_value_t = 1.0)]
+    pub kmax: f64,
+    /// Tangential smoothing passes.
+    #[arg(long, default_value_t = 2)]
+    pub smooth: usize,
+    /// Stricter topology test (Plantinga–Vegter small normal variation).
+    #[arg(long)]
+    pub certify: bool,
+    /// Time at which a surface in `t` is meshed.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub t: f64,
+    /// Output file: .ply, .obj, .stl or .glb (default: the input's stem .ply).
+    #[arg(short = 'o', long = "output")]
+    pub output: Option<PathBuf>,
+    /// Print statistics on stdout: `--stats json`.
+    #[arg(long, value_enum)]
+    pub stats: Option<StatsFormat>,
+}
+
+/// Formats of `--stats`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StatsFormat {
+    Json,
+}
+
+/// Stages `compile --emit` can print.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Emit {
+    Ast,
+    Ir,
+}
+
+/// Runs a parsed command line; returns the exit status.
+pub fn run(cli: Cli, out: &mut dyn Write, err: &mut dyn Write) -> i32 {
+    let result = match cli.command {
+        Command::Compile { source, emit } => compile(&source, emit, out),
+        Command::Mesh { source, mesh } => mesh_command(&source, &mesh, out, err),
+        Command::Eval {
+            source,
+            coords,
+            bbox,
+            t,
+            json,
+        } => eval(&source, &coords, bbox.as_deref(), t, json, out),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            let _ = err.write_all(e.render().as_bytes());
+            1
+        }
+    }
+}
+
+fn io_err(path: &str) -> impl Fn(std::io::Error) -> Error + '_ {
+    move |error| Error::Io {
+        path: path.to_string(),
+        error,
+    }
+}
+
+/// Parses `--set` and `--domain` into compile options.
+fn options(args: &SourceArgs) -> Result<CompileOptions, Error> {
+    let mut params = Vec::new();
+    for s in &args.set {
+        let (name, value) = s
+            .split_once('=')
+            .ok_or_else(|| Error::Usage(format!("--set `{s}`: expected NAME=VALUE")))?;
+        let v: f64 = value
+            .trim()
+            .parse()
+            .map_err(|_| Error::Usage(format!("--set `{s}`: `{value}` is not a number")))?;
+        if !v.is_finite() {
+            return Err(Error::Usage(format!(
+                "--set `{s}`: the value is not finite"
+            )));
+        }
+        params.push((name.trim().to_string(), v));
+    }
+    let domain = args.domain.as_deref().map(Bounds::parse).transpose()?;
+    Ok(CompileOptions { params, domain })
+}
+
+fn load(args: &SourceArgs) -> Result<(String, Vec<u8>), Error> {
+    let name = args.file.display().to_string();
+    let bytes = std::fs::read(&args.file).map_err(io_err(&name))?;
+    Ok((name, bytes))
+}
+
+fn compile_file(args: &SourceArgs) -> Result<Surface, Error> {
+    let opts = options(args)?;
+    let (name, bytes) = load(args)?;
+    Surface::compile_bytes(&bytes, &name, &opts)
+}
+
+fn write(out: &mut dyn Write, text: &str) -> Result<(), Error> {
+    out.write_all(text.as_bytes()).map_err(io_err("<stdout>"))
+}
+
+fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result<(), Error> {
+    if emit == Some(Emit::Ast) {
+        let (name, bytes) = load(args)?;
+        let source = crate::syntax::source_from_bytes(&bytes, &name)?;
+        return write(out, &crate::syntax::emit_ast(&source, &name)?);
+    }
+    let surface = compile_file(args)?;
+    match emit {
+        Some(Emit::Ir) => write(out, &surface.program.to_string()),
+        _ => {
+            let d = surface.domain;
+            let mut s = format!(
+                "{}: ok\n  IR: {} instructions\n  domain: [{}, {}] x [{}, {}] x [{}, {}]\n",
+                surface.file,
+                surface.program.len(),
+                d.lo[0],
+                d.hi[0],
+                d.lo[1],
+                d.hi[1],
+                d.lo[2],
+                d.hi[2]
+            );
+            for (name, v) in &surface.params {
+                s += &format!("  param {name} = {v}\n");
+            }
+            write(out, &s)
+        }
+    }
+}
+
+/// A number for JSON: shortest round-trip form; non-finite values (which
+/// JSON cannot hold) become `null`.
+fn num(v: f64) -> Json {
+    json!(v)
+}
+
+fn interval_json(iv: Interval) -> Json {
+    json!([num(iv.lo), num(iv.hi)])
+}
+
+fn eval(
+    args: &SourceArgs,
+    coords: &[f64],
+    bbox: Option<&str>,
+    t: Option<f64>,
+    as_json: bool,
+    out: &mut dyn Write,
+) -> Result<(), Error> {
+    let surface = compile_file(args)?;
+    let text = match bbox {
+        Some(b) => {
+            if !coords.is_empty() {
+                return Err(Error::Usage(
+                    "give either X Y Z [T] or --box, not both".into(),
+                ));
+            }
+            let b = Bounds::parse(b)?;
+            let t = t.unwrap_or(0.0);
+            let [x, y, z] = b.sides();
+            let g = surface.grad([x, y, z, Interval { lo: t, hi: t }]);
+            if as_json {
+                json!({
+                    "value": interval_json(g.value),
+                    "grad": g.grad.map(interval_json),
+                    "defined": g.defined,
+                })
+                .to_string()
+                    + "\n"
+            } else {
+                let iv = |i: Interval| format!("[{:?}, {:?}]", i.lo, i.hi);
+                format!(
+                    "value: {}\ngrad:  {} {} {}\ndefined on the whole box: {}\n",
+                    iv(g.value),
+                    iv(g.grad[0]),
+                    iv(g.grad[1]),
+                    iv(g.grad[2]),
+                    g.defined
+                )
+            }
+        }
+        None => {
+            if !(3..=4).contains(&coords.len()) {
+                return Err(Error::Usage(
+                    "eval needs a point X Y Z [T] or --box a,b,c,d,e,f".into(),
+                ));
+            }
+            if t.is_some() {
+                return Err(Error::Usage(
+                    "--t goes with --box; give T after X Y Z".into(),
+                ));
+            }
+            let p = [
+                coords[0],
+                coords[1],
+                coords[2],
+                *coords.get(3).unwrap_or(&0.0),
+            ];
+            let (v, g) = surface.point_grad(p);
+            if as_json {
+                json!({"value": num(v), "grad": g.map(num)}).to_string() + "\n"
+            } else {
+                format!("value: {v:?}\ngrad:  {:?} {:?} {:?}\n", g[0], g[1], g[2])
+            }
+        }
+    };
+    write(out, &text)
+}
+
+fn mesh_command(
+    args: &SourceArgs,
+    m: &MeshArgs,
+    out: &mut dyn Write,
+    err: &mut dyn Write,
+) -> Result<(), Error> {
+    use crate::mesh::mesher::{self, MeshOptions, Stage};
+    use crate::octree::{OctreeOptions, TopologyTest};
+
+    if !(m.kmax.is_finite() && m.kmax > 0.0) {
+        return Err(Error::Usage(format!(
+            "--kmax {}: must be a positive number",
+            m.kmax
+        )));
+    }
+    if m.min_level > m.level {
+        return Err(Error::Usage(format!(
+            "--min-level {} is above --level {}",
+            m.min_level, m.level
+        )));
+    }
+    let output = match &m.output {
+        Some(p) => p.clone(),
+        None => args.file.with_extension("ply"),
+    };
+    // Fail on a bad extension before doing any work.
+    crate::io::Format::from_path(&output)?;
+
+    let t0 = std::time::Instant::now();
+    let surface = compile_file(args)?;
+    let compile_ms = t0.elapsed().as_secs_f64() * 1e3;
+
+    let bar =
+        indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::stderr());
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} [{elapsed}] {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    let opts = MeshOptions {
+        octree: OctreeOptions {
+            max_level: m.level,
+            min_level: m.min_level,
+            kmax: m.kmax,
+            test: if m.certify {
+                TopologyTest::Certify
+            } else {
+                TopologyTest::Paper
+            },
+            t: m.t,
+        },
+        smooth: m.smooth,
+        domain: None,
+    };
+    let (mesh, report) = mesher::mesh(&surface, &opts, &|stage| {
+        bar.set_message(match stage {
+            Stage::Octree { level, cells } => {
+                format!("octree: level {level}, {cells} cells evaluated")
+            }
+            Stage::Dual => "dual grid".to_string(),
+            Stage::Polygonize => "polygonising".to_string(),
+            Stage::Smooth => "smoothing".to_string(),
+        })
+    });
+    bar.finish_and_clear();
+    crate::io::write_file(&mesh, &output)?;
+
+    let r = &report;
+    let summary = format!(
+        "{}: {} triangles, {} vertices, {} component(s), euler {}, {}, {}\n",
+        output.display(),
+        r.triangles,
+        r.vertices,
+        r.topology.components,
+        r.topology.euler,
+        if r.topology.watertight {
+            "watertight"
+        } else {
+            "open"
+        },
+        if r.guaranteed {
+            "topology guaranteed".to_string()
+        } else {
+            format!("{} ambiguous cell(s)", r.ambiguous_cells)
+        }
+    );
+    let _ = err.write_all(summary.as_bytes());
+    if m.stats == Some(StatsFormat::Json) {
+        let j = json!({
+            "triangles": r.triangles,
+            "vertices": r.vertices,
+            "aspect_good": num(r.aspect_good),
+            "components": r.topology.components,
+            "euler": r.topology.euler,
+            "genus": r.topology.genus,
+            "watertight": r.topology.watertight,
+            "ambiguous_cells": r.ambiguous_cells,
+            "guaranteed": r.guaranteed,
+            "max_level_reached": r.octree.max_level_reached,
+            "topology_test": if m.certify { "certify" } else { "paper" },
+            "boundary_edges": r.topology.boundary_edges,
+            "octree_nodes": r.octree.nodes,
+            "dual_cells": r.dual_cells,
+            "timings_ms": {
+                "compile": num(compile_ms),
+                "octree": num(r.timings.octree),
+                "dual": num(r.timings.dual),
+                "polygonize": num(r.timings.polygonize),
+                "smooth": num(r.timings.smooth),
+                "total": num(r.timings.total + compile_ms),
+            }
+        });
+        write(out, &(j.to_string() + "\n"))?;
+    }
+    Ok(())
+}

@@ -1,10 +1,57 @@
-//! Interval evaluation.
+//! Interval evaluation: every instruction's enclosure, front to back.
+//!
+//! Each value carries its own decoration: an instruction is `defined` when
+//! its op is defined and continuous on its operands' enclosures *and* its
+//! operands are defined, so an unused undefined value (dead code) does not
+//! spoil the output's flag. Inputs are normalised with
+//! [`Interval::normalize`] (a NaN bound gives an entire, undefined input).
 
-use crate::interval::{DecInterval, Interval};
-use crate::ir::Program;
+use crate::interval::{self, DecInterval, Interval};
+use crate::ir::{Op, Program};
+
+/// The enclosure of one instruction given the enclosures before it.
+pub fn step(op: &Op, vals: &[DecInterval], input: [Interval; 4]) -> DecInterval {
+    match *op {
+        Op::Var(v) => {
+            let (iv, ok) = input[v.index()].normalize();
+            DecInterval::new(iv, ok)
+        }
+        Op::Const(c) => {
+            let (iv, ok) = Interval::new(c.lo, c.hi).normalize();
+            DecInterval::new(iv, ok && c.defined)
+        }
+        Op::Unary(u, a) => {
+            let a = vals[a.index()];
+            let (iv, ok) = interval::unary(u, a.iv);
+            DecInterval::new(iv, ok && a.defined)
+        }
+        Op::Binary(b, x, y) => {
+            let (x, y) = (vals[x.index()], vals[y.index()]);
+            let (iv, ok) = interval::binary(b, x.iv, y.iv);
+            DecInterval::new(iv, ok && x.defined && y.defined)
+        }
+        Op::Powi(a, n) => {
+            let a = vals[a.index()];
+            let (iv, ok) = interval::powi(a.iv, n);
+            DecInterval::new(iv, ok && a.defined)
+        }
+    }
+}
+
+/// Enclosures of all instructions over the box, in program order.
+pub fn eval_all(program: &Program, input: [Interval; 4]) -> Vec<DecInterval> {
+    let mut vals = Vec::with_capacity(program.insts.len());
+    for op in &program.insts {
+        let v = step(op, &vals, input);
+        vals.push(v);
+    }
+    vals
+}
 
 /// Enclosure of the program over the box `[x, y, z, t]`.
 pub fn eval(program: &Program, input: [Interval; 4]) -> DecInterval {
-    let _ = (program, input);
-    todo!()
+    eval_all(program, input)
+        .get(program.output.index())
+        .copied()
+        .unwrap_or(DecInterval::new(Interval::ENTIRE, false))
 }

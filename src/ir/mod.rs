@@ -57,6 +57,7 @@
 pub mod builder;
 pub mod dce;
 pub mod fold;
+pub mod literal;
 pub mod simplify;
 pub mod text;
 

@@ -1,0 +1,208 @@
+//! Outward rounding of single floating-point operations.
+//!
+//! Every function here returns a float that is a guaranteed lower (`*_down`)
+//! or upper (`*_up`) bound of the *exact* real result of one operation on
+//! f64 operands, computed in the default round-to-nearest mode (no MXCSR
+//! games).
+//!
+//! # Strategy
+//!
+//! The operation is computed in round-to-nearest, giving `r`. Then:
+//!
+//! * if the result is *provably exact* it is returned unchanged;
+//! * if an error-free transformation tells the sign of the rounding error
+//!   `exact − r`, only the bound on the wrong side is moved one ulp
+//!   (`f64::next_down` / `f64::next_up`), so the bounds are as tight as
+//!   hardware directed rounding would give;
+//! * otherwise (overflow, underflow region, where the error-free
+//!   transformations stop being exact) `r` is stepped one ulp outward, which
+//!   is always sound because round-to-nearest is off by at most half an ulp.
+//!
+//! The error-free transformations are the classical ones (Knuth's TwoSum for
+//! sums; `fma(a, b, −p)` for the error of a product, Dekker / Ogita, Rump &
+//! Oishi 2005; `fma(−q, b, a)` for the remainder of a division and
+//! `fma(−s, s, x)` for the residual of a square root, Boldo & Daumas 2003).
+//! The FMA-based ones are exact only when no underflow occurs, hence the
+//! [`SAFE`] threshold: below it we fall back to stepping outward.
+//!
+//! Infinite operands are bounds of unbounded intervals; a result that is
+//! infinite because an operand is infinite is "exact" (the limit), while an
+//! infinite result from finite operands is an overflow (the lower bound of
+//! `+∞` becomes `f64::MAX`). A product with a zero factor is exactly zero,
+//! even against an infinite bound (the zero is an actual member of its
+//! interval). Callers never pass `∞ − ∞`, `0/0` or `∞/∞`: the interval
+//! operations in [`super::arith`] are arranged so that these cannot occur.
+
+/// Magnitude above which the FMA-based error terms are exact (well above
+/// `2^-969`, where the product/remainder error could underflow).
+pub const SAFE: f64 = 1.0e-270;
+
+/// Rounding direction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Dir {
+    Down,
+    Up,
+}
+
+/// Moves `r` one ulp in direction `d` (an always-sound bound when `r` is a
+/// round-to-nearest or correctly rounded result).
+#[inline]
+pub fn step(r: f64, d: Dir) -> f64 {
+    match d {
+        Dir::Down => r.next_down(),
+        Dir::Up => r.next_up(),
+    }
+}
+
+/// Given `r = RN(exact)` and the sign of `exact − r` (`err`; NaN when
+/// unknown), the bound in direction `d`.
+#[inline]
+fn settle(r: f64, err: f64, d: Dir) -> f64 {
+    if err == 0.0 {
+        r
+    } else if err.is_nan() {
+        step(r, d)
+    } else if (err > 0.0) == (d == Dir::Up) {
+        // The exact value lies beyond r in direction d.
+        step(r, d)
+    } else {
+        r
+    }
+}
+
+/// Bound of `a + b`.
+pub fn add(a: f64, b: f64, d: Dir) -> f64 {
+    let s = a + b;
+    if s.is_infinite() {
+        return if a.is_infinite() || b.is_infinite() {
+            s
+        } else {
+            step(s, d)
+        };
+    }
+    // Knuth's TwoSum: e = (a + b) − s exactly, barring overflow.
+    let bb = s - a;
+    let e = (a - (s - bb)) + (b - bb);
+    if e.is_finite() {
+        settle(s, e, d)
+    } else {
+        step(s, d)
+    }
+}
+
+/// Bound of `a − b`.
+pub fn sub(a: f64, b: f64, d: Dir) -> f64 {
+    add(a, -b, d)
+}
+
+/// Bound of `a · b`, with `0 · x = 0` for every `x` (including `±∞`).
+pub fn mul(a: f64, b: f64, d: Dir) -> f64 {
+    if a == 0.0 || b == 0.0 {
+        return 0.0;
+    }
+    let p = a * b;
+    if p.is_infinite() {
+        return if a.is_infinite() || b.is_infinite() {
+            p
+        } else {
+            step(p, d)
+        };
+    }
+    if p.abs() < SAFE {
+        return step(p, d);
+    }
+    settle(p, a.mul_add(b, -p), d)
+}
+
+/// Bound of `a / b` for `b ≠ 0` (callers exclude zero divisors and `∞/∞`).
+pub fn div(a: f64, b: f64, d: Dir) -> f64 {
+    if a == 0.0 {
+        return 0.0;
+    }
+    let q = a / b;
+    if a.is_infinite() || b.is_infinite() {
+        // ∞/finite = ±∞ and finite/∞ = ±0 are exact limits.
+        return q;
+    }
+    if q.is_infinite() || q.abs() < SAFE || a.abs() < SAFE {
+        return step(q, d);
+    }
+    // a/b − q = r/b with r = a − q·b exact.
+    let r = (-q).mul_add(b, a);
+    let err = if r == 0.0 {
+        0.0
+    } else if (r > 0.0) == (b > 0.0) {
+        1.0
+    } else {
+        -1.0
+    };
+    if r.is_nan() {
+        return step(q, d);
+    }
+    settle(q, err, d)
+}
+
+/// Bound of `√x` for `x ≥ 0`.
+pub fn sqrt(x: f64, d: Dir) -> f64 {
+    let s = x.sqrt();
+    if x == 0.0 || x.is_infinite() {
+        return s;
+    }
+    if x < SAFE {
+        return step(s, d).max(0.0);
+    }
+    // x − s² exactly; positive means √x > s.
+    settle(s, (-s).mul_add(s, x), d)
+}
+
+/// Bound of a correctly rounded function value `r = RN(f(x))`: one ulp
+/// outward unless the caller knows the value is exact.
+pub fn cr(r: f64, exact: bool, d: Dir) -> f64 {
+    if exact || r.is_infinite() && d == Dir::Up && r > 0.0 {
+        r
+    } else if r.is_infinite() && d == Dir::Down && r < 0.0 {
+        r
+    } else {
+        step(r, d)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exact_results_stay_tight() {
+        assert_eq!(add(1.0, 2.0, Dir::Down), 3.0);
+        assert_eq!(add(1.0, 2.0, Dir::Up), 3.0);
+        assert_eq!(mul(2.0, 2.0, Dir::Up), 4.0);
+        assert_eq!(div(1.0, 4.0, Dir::Down), 0.25);
+        assert_eq!(sqrt(4.0, Dir::Up), 2.0);
+    }
+
+    #[test]
+    fn inexact_results_bracket() {
+        let lo = add(0.1, 0.2, Dir::Down);
+        let hi = add(0.1, 0.2, Dir::Up);
+        assert!(lo < hi);
+        assert_eq!(hi, lo.next_up());
+        let lo = div(1.0, 3.0, Dir::Down);
+        let hi = div(1.0, 3.0, Dir::Up);
+        assert_eq!(hi, lo.next_up());
+        assert!(lo * 3.0 <= 1.0);
+        let lo = sqrt(2.0, Dir::Down);
+        let hi = sqrt(2.0, Dir::Up);
+        assert_eq!(hi, lo.next_up());
+        assert!(lo * lo < 2.0 && hi * hi > 2.0);
+    }
+
+    #[test]
+    fn overflow_and_zero() {
+        assert_eq!(mul(1e300, 1e300, Dir::Down), f64::MAX);
+        assert_eq!(mul(1e300, 1e300, Dir::Up), f64::INFINITY);
+        assert_eq!(mul(0.0, f64::INFINITY, Dir::Up), 0.0);
+        assert_eq!(add(f64::MAX, f64::MAX, Dir::Down), f64::MAX);
+        assert!(mul(1e-200, 1e-200, Dir::Down) < 0.0);
+        assert!(mul(1e-200, 1e-200, Dir::Up) > 0.0);
+    }
+}

@@ -1,0 +1,91 @@
+//! Writing meshes: binary PLY (with normals and the red/green ambiguity
+//! colours, SPEC §3), OBJ, binary STL and GLB (glTF 2.0 binary), chosen by
+//! the output path's extension. Files are written atomically: into a
+//! temporary file beside the target, then renamed, so a failed run never
+//! leaves a partial file.
+
+pub mod glb;
+pub mod obj;
+pub mod ply;
+pub mod stl;
+
+use std::io::Write;
+use std::path::Path;
+
+use crate::error::Error;
+use crate::mesh::Mesh;
+
+/// Output formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Ply,
+    Obj,
+    Stl,
+    Glb,
+}
+
+impl Format {
+    /// The format named by a path's extension (case-insensitive).
+    pub fn from_path(path: &Path) -> Result<Format, Error> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("ply") => Ok(Format::Ply),
+            Some("obj") => Ok(Format::Obj),
+            Some("stl") => Ok(Format::Stl),
+            Some("glb") => Ok(Format::Glb),
+            _ => Err(Error::Usage(format!(
+                "{}: unknown output format; use .ply, .obj, .stl or .glb",
+                path.display()
+            ))),
+        }
+    }
+}
+
+/// Serialises `mesh` in `format`.
+pub fn encode(mesh: &Mesh, format: Format, out: &mut dyn Write) -> std::io::Result<()> {
+    match format {
+        Format::Ply => ply::write(mesh, out),
+        Format::Obj => obj::write(mesh, out),
+        Format::Stl => stl::write(mesh, out),
+        Format::Glb => glb::write(mesh, out),
+    }
+}
+
+/// Writes `mesh` to `path` atomically, in the format its extension names.
+pub fn write_file(mesh: &Mesh, path: &Path) -> Result<(), Error> {
+    let format = Format::from_path(path)?;
+    write_atomic(path, |w| encode(mesh, format, w))
+}
+
+/// Writes a file atomically: `fill` writes into a temporary file in the
+/// same directory, which is renamed over `path` only when all went well.
+pub fn write_atomic(
+    path: &Path,
+    fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<(), Error> {
+    let io = |error| Error::Io {
+        path: path.display().to_string(),
+        error,
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let file = std::fs::File::create(&tmp)?;
+        let mut w = std::io::BufWriter::new(file);
+        fill(&mut w)?;
+        w.flush()?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(io)
+}

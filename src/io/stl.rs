@@ -1,0 +1,27 @@
+//! Binary STL: an 80-byte header, a triangle count, then per triangle the
+//! unit facet normal and three vertices (float32) and a zero attribute.
+
+use std::io::Write;
+
+use crate::mesh::Mesh;
+
+pub fn write(mesh: &Mesh, out: &mut dyn Write) -> std::io::Result<()> {
+    let mut header = [0u8; 80];
+    header[..4].copy_from_slice(b"isoc");
+    out.write_all(&header)?;
+    let count = u32::try_from(mesh.triangles.len())
+        .map_err(|_| std::io::Error::other("too many triangles for STL"))?;
+    out.write_all(&count.to_le_bytes())?;
+    let mut buf = Vec::with_capacity(mesh.triangles.len() * 50);
+    for &t in &mesh.triangles {
+        let n = mesh.face_normal(t).normalize_or_zero();
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+        for v in [n, a, b, c] {
+            for x in [v.x, v.y, v.z] {
+                buf.extend_from_slice(&(x as f32).to_le_bytes());
+            }
+        }
+        buf.extend_from_slice(&[0, 0]);
+    }
+    out.write_all(&buf)
+}

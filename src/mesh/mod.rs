@@ -1,0 +1,35 @@
+//! Triangle meshes: the mesher's output, its topology and quality.
+//!
+//! # Layout
+//!
+//! Indexed triangles over a vertex list. Per vertex: position, unit normal
+//! (the direction of ∇f), and whether it lies in an ambiguous region
+//! (Paiva et al. §4: the map of regions whose topology is not guaranteed).
+//! Triangles are counter-clockwise seen from the side `f > 0`, so their
+//! right-hand normal points along `+∇f` (outward = increasing f).
+
+pub mod mesher;
+pub mod quality;
+pub mod roots;
+pub mod smooth;
+pub mod topology;
+
+use glam::DVec3;
+
+/// An indexed triangle mesh. See the module doc.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    pub positions: Vec<DVec3>,
+    pub normals: Vec<DVec3>,
+    pub ambiguous: Vec<bool>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    /// The right-hand normal of triangle `t`, not normalised (its length is
+    /// twice the area).
+    pub fn face_normal(&self, t: [u32; 3]) -> DVec3 {
+        let [a, b, c] = t.map(|i| self.positions[i as usize]);
+        (b - a).cross(c - a)
+    }
+}

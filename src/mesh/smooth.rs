@@ -1,0 +1,133 @@
+//! Tangential smoothing with re-projection (Paiva et al. §4.3, end).
+//!
+//! One pass moves every vertex towards the barycentre of its star (the
+//! average of its neighbours), keeping only the component of the move in
+//! the tangent plane of the surface at the vertex, then projects it back
+//! onto `f = 0` ([`super::roots::project`]). A move is **skipped** when it
+//! would flip or collapse an incident triangle (its normal would turn by
+//! more than 90° or its area fall below a fraction of the old), or when the
+//! projection finds no zero near the candidate: smoothing never changes the
+//! mesh's connectivity or orientation, so never its topology.
+//!
+//! Candidates are computed in parallel from the positions at the start of
+//! the pass (the costly part: projection); they are then accepted one by
+//! one against the *current* positions, so two neighbours moving at once
+//! cannot together flip a triangle that each alone would not.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::Mesh;
+use super::roots::{Field, project};
+
+/// Vertex → incident triangles, as compressed rows.
+struct Star {
+    start: Vec<u32>,
+    tris: Vec<u32>,
+}
+
+impl Star {
+    fn new(mesh: &Mesh) -> Star {
+        let n = mesh.positions.len();
+        let mut start = vec![0u32; n + 1];
+        for t in &mesh.triangles {
+            for &v in t {
+                start[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut tris = vec![0u32; start[n] as usize];
+        for (ti, t) in mesh.triangles.iter().enumerate() {
+            for &v in t {
+                tris[fill[v as usize] as usize] = ti as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        Star { start, tris }
+    }
+
+    fn of(&self, v: usize) -> &[u32] {
+        &self.tris[self.start[v] as usize..self.start[v + 1] as usize]
+    }
+}
+
+/// Whether moving vertex `v` to `p` keeps every incident triangle's
+/// orientation and a reasonable share of its area.
+fn move_is_safe(mesh: &Mesh, star: &Star, v: usize, p: DVec3) -> bool {
+    star.of(v).iter().all(|&ti| {
+        let t = mesh.triangles[ti as usize];
+        let before = mesh.face_normal(t);
+        let [a, b, c] = t.map(|i| {
+            if i as usize == v {
+                p
+            } else {
+                mesh.positions[i as usize]
+            }
+        });
+        let after = (b - a).cross(c - a);
+        after.dot(before) > 0.0 && after.length() > 0.05 * before.length()
+    })
+}
+
+/// Runs `passes` smoothing passes; returns how many moves were accepted.
+pub fn smooth(mesh: &mut Mesh, field: &dyn Field, passes: usize) -> usize {
+    if passes == 0 || mesh.triangles.is_empty() {
+        return 0;
+    }
+    let star = Star::new(mesh);
+    let mut accepted = 0;
+    for _ in 0..passes {
+        let candidates: Vec<Option<DVec3>> = (0..mesh.positions.len())
+            .into_par_iter()
+            .map(|v| {
+                let tris = star.of(v);
+                if tris.is_empty() {
+                    return None;
+                }
+                let p = mesh.positions[v];
+                let (mut sum, mut count, mut reach) = (DVec3::ZERO, 0.0, 0.0f64);
+                for &ti in tris {
+                    for &w in &mesh.triangles[ti as usize] {
+                        if w as usize != v {
+                            let q = mesh.positions[w as usize];
+                            sum += q;
+                            count += 1.0;
+                            reach = reach.max((q - p).length());
+                        }
+                    }
+                }
+                let n = mesh.normals[v];
+                let d = sum / count - p;
+                let tangential = d - n * d.dot(n);
+                project(field, p + tangential * 0.5, 0.5 * reach)
+            })
+            .collect();
+        for (v, c) in candidates.into_iter().enumerate() {
+            if let Some(p) = c
+                && move_is_safe(mesh, &star, v, p)
+            {
+                mesh.positions[v] = p;
+                accepted += 1;
+            }
+        }
+        // Normals follow the surface at the new positions.
+        let normals: Vec<DVec3> = mesh
+            .positions
+            .par_iter()
+            .zip(mesh.normals.par_iter())
+            .map(|(&p, &old)| {
+                let g = field.gradient(p).1;
+                if g.is_finite() && g.length_squared() > 0.0 {
+                    g.normalize()
+                } else {
+                    old
+                }
+            })
+            .collect();
+        mesh.normals = normals;
+    }
+    accepted
+}

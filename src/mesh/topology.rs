@@ -1,0 +1,179 @@
+//! The topology of a mesh, computed from the mesh itself: connected
+//! components, Euler characteristic, genus per component, and whether the
+//! mesh is a closed, consistently oriented 2-manifold.
+//!
+//! Definitions. An (undirected) edge is *manifold* when exactly two
+//! triangles use it, and *consistently oriented* when they traverse it in
+//! opposite directions. A *boundary* edge has one triangle. The mesh is
+//! **watertight** when every edge is manifold and consistently oriented and
+//! no vertex is a non-manifold "bow-tie" (its triangles form one fan).
+//! For a closed orientable component, `χ = V − E + F = 2 − 2g`.
+
+use std::collections::HashMap;
+
+use super::Mesh;
+
+/// What [`analyze`] finds.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Topology {
+    pub vertices: usize,
+    pub edges: usize,
+    pub faces: usize,
+    /// Components connected through triangles (isolated vertices ignored).
+    pub components: usize,
+    /// `V − E + F` of the whole mesh (vertices used by triangles only).
+    pub euler: i64,
+    /// Genus of each component, largest component first; `None` for a
+    /// component that is not closed (its genus is not defined by χ alone).
+    pub genus: Vec<Option<i64>>,
+    pub boundary_edges: usize,
+    /// Edges with three or more triangles.
+    pub nonmanifold_edges: usize,
+    /// Edges whose two triangles traverse them in the same direction.
+    pub misoriented_edges: usize,
+    /// Vertices whose triangles form more than one fan.
+    pub nonmanifold_vertices: usize,
+    pub watertight: bool,
+}
+
+struct UnionFind(Vec<u32>);
+
+impl UnionFind {
+    fn find(&mut self, mut i: u32) -> u32 {
+        while self.0[i as usize] != i {
+            let p = self.0[self.0[i as usize] as usize];
+            self.0[i as usize] = p;
+            i = p;
+        }
+        i
+    }
+    fn union(&mut self, a: u32, b: u32) {
+        let (a, b) = (self.find(a), self.find(b));
+        if a != b {
+            self.0[a.max(b) as usize] = a.min(b);
+        }
+    }
+}
+
+/// Analyses `mesh`. See the module doc.
+pub fn analyze(mesh: &Mesh) -> Topology {
+    let n = mesh.positions.len();
+    // Directed edge (a, b) → count; undirected key (min, max).
+    let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
+    let mut used = vec![false; n];
+    let mut uf = UnionFind((0..n as u32).collect());
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            used[a as usize] = true;
+            let e = edges.entry((a.min(b), a.max(b))).or_insert((0, 0));
+            if a < b {
+                e.0 += 1;
+            } else {
+                e.1 += 1;
+            }
+            uf.union(a, b);
+        }
+    }
+    let (mut boundary, mut nonmanifold, mut misoriented) = (0, 0, 0);
+    for &(fwd, back) in edges.values() {
+        match fwd + back {
+            1 => boundary += 1,
+            2 if fwd != 1 => misoriented += 1,
+            2 => {}
+            _ => nonmanifold += 1,
+        }
+    }
+    let nonmanifold_vertices = count_bowties(mesh, &used);
+    let v = used.iter().filter(|u| **u).count();
+    // Per component: V, E, F and closedness.
+    let mut comp: HashMap<u32, (i64, i64, i64, bool)> = HashMap::new();
+    for i in 0..n as u32 {
+        if used[i as usize] {
+            let r = uf.find(i);
+            comp.entry(r).or_insert((0, 0, 0, true)).0 += 1;
+        }
+    }
+    for (&(a, _), &(fwd, back)) in &edges {
+        let r = uf.find(a);
+        let c = comp.get_mut(&r).expect("edge of a used vertex");
+        c.1 += 1;
+        if fwd + back != 2 || fwd != 1 {
+            c.3 = false;
+        }
+    }
+    for t in &mesh.triangles {
+        let r = uf.find(t[0]);
+        comp.get_mut(&r).expect("component").2 += 1;
+    }
+    let mut comps: Vec<(i64, i64, i64, bool)> = comp.into_values().collect();
+    comps.sort_by_key(|c| std::cmp::Reverse(c.2));
+    let genus = comps
+        .iter()
+        .map(|&(v, e, f, closed)| closed.then(|| (2 - (v - e + f)) / 2))
+        .collect();
+    let watertight =
+        boundary == 0 && nonmanifold == 0 && misoriented == 0 && nonmanifold_vertices == 0;
+    Topology {
+        vertices: v,
+        edges: edges.len(),
+        faces: mesh.triangles.len(),
+        components: comps.len(),
+        euler: v as i64 - edges.len() as i64 + mesh.triangles.len() as i64,
+        genus,
+        boundary_edges: boundary,
+        nonmanifold_edges: nonmanifold,
+        misoriented_edges: misoriented,
+        nonmanifold_vertices,
+        watertight,
+    }
+}
+
+/// Vertices whose incident triangles do not form a single fan (connected
+/// through shared edges around the vertex).
+fn count_bowties(mesh: &Mesh, used: &[bool]) -> usize {
+    let n = mesh.positions.len();
+    // For each vertex, the list of (other1, other2) opposite edges.
+    let mut start = vec![0u32; n + 1];
+    for t in &mesh.triangles {
+        for &v in t {
+            start[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut opp = vec![(0u32, 0u32); start[n] as usize];
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            let v = t[k] as usize;
+            opp[fill[v] as usize] = (t[(k + 1) % 3], t[(k + 2) % 3]);
+            fill[v] += 1;
+        }
+    }
+    let mut bad = 0;
+    for v in 0..n {
+        if !used[v] {
+            continue;
+        }
+        let fan = &opp[start[v] as usize..start[v + 1] as usize];
+        // Union the triangles of the fan that share a neighbour vertex.
+        let mut uf = UnionFind((0..fan.len() as u32).collect());
+        let mut by_nb: HashMap<u32, u32> = HashMap::new();
+        for (i, &(a, b)) in fan.iter().enumerate() {
+            for w in [a, b] {
+                if let Some(&j) = by_nb.get(&w) {
+                    uf.union(i as u32, j);
+                } else {
+                    by_nb.insert(w, i as u32);
+                }
+            }
+        }
+        let roots = (0..fan.len() as u32).filter(|&i| uf.find(i) == i).count();
+        if roots > 1 {
+            bad += 1;
+        }
+    }
+    bad
+}

@@ -1,0 +1,116 @@
+//! Rendering located diagnostics as text, and "did you mean" suggestions.
+//!
+//! # Contract
+//!
+//! [`render`] turns one [`Diagnostic`] into
+//!
+//! ```text
+//! FILE:LINE:COL: error: MESSAGE
+//!    |
+//!  3 | let a = sqr(x);
+//!    |         ^^^
+//!    = help: did you mean `sqrt`?
+//! ```
+//!
+//! with 1-based line and column (the column counts characters, not bytes).
+//! Line/column lookup uses `codespan-reporting`'s [`SimpleFile`]. No colours,
+//! no panics: spans past the end of the source or inside a UTF-8 character
+//! are clamped. [`closest`] finds the nearest candidate by edit distance.
+
+use crate::error::Diagnostic;
+use codespan_reporting::files::{Files, SimpleFile};
+use std::fmt::Write;
+
+/// Renders `d` (see the module doc) and appends it to `out`.
+pub fn render(file: &str, source: &str, d: &Diagnostic, out: &mut String) {
+    let sf = SimpleFile::new(file, source);
+    let start = clamp(source, d.span.start);
+    let end = clamp(source, d.span.end.max(start));
+    let line = sf.line_index((), start).unwrap_or(0);
+    let line_range = sf.line_range((), line).unwrap_or(0..source.len());
+    let text = source
+        .get(line_range.clone())
+        .unwrap_or("")
+        .trim_end_matches(['\n', '\r']);
+    let col_chars = source
+        .get(line_range.start..start)
+        .map_or(0, |s| s.chars().count());
+    let _ = writeln!(
+        out,
+        "{file}:{}:{}: error: {}",
+        line + 1,
+        col_chars + 1,
+        d.message
+    );
+    let num = (line + 1).to_string();
+    let pad = " ".repeat(num.len());
+    // Caret line: keep tabs so that the carets line up under the text.
+    let mut caret = String::new();
+    for c in source.get(line_range.start..start).unwrap_or("").chars() {
+        caret.push(if c == '\t' { '\t' } else { ' ' });
+    }
+    let line_end = line_range.start + text.len();
+    let width = source
+        .get(start..end.min(line_end))
+        .map_or(0, |s| s.chars().count())
+        .max(1);
+    caret.push_str(&"^".repeat(width));
+    let shown: String = text
+        .chars()
+        .map(|c| {
+            if c.is_control() && c != '\t' {
+                '\u{FFFD}'
+            } else {
+                c
+            }
+        })
+        .collect();
+    let _ = writeln!(out, "{pad} |");
+    let _ = writeln!(out, "{num} | {shown}");
+    let _ = writeln!(out, "{pad} | {caret}");
+    for n in &d.notes {
+        if n.starts_with("note:") || n.starts_with("help:") {
+            let _ = writeln!(out, "{pad} = {n}");
+        } else {
+            let _ = writeln!(out, "{pad} = note: {n}");
+        }
+    }
+}
+
+/// The largest char boundary of `source` that is `<= pos`.
+fn clamp(source: &str, pos: usize) -> usize {
+    let mut p = pos.min(source.len());
+    while !source.is_char_boundary(p) {
+        p -= 1;
+    }
+    p
+}
+
+/// Levenshtein distance between two short strings (by chars).
+pub fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    let mut cur = vec![0; b.len() + 1];
+    for (i, ca) in a.chars().enumerate() {
+        cur[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let sub = prev[j] + usize::from(ca != cb);
+            cur[j + 1] = sub.min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        std::mem::swap(&mut prev, &mut cur);
+    }
+    prev[b.len()]
+}
+
+/// The candidate closest to `name`, if it is close enough to be a likely
+/// typo (distance at most 1 for short names, 2 for longer ones).
+pub fn closest<'c>(name: &str, candidates: impl IntoIterator<Item = &'c str>) -> Option<&'c str> {
+    let limit = if name.chars().count() <= 3 { 1 } else { 2 };
+    candidates
+        .into_iter()
+        .filter(|c| *c != name)
+        .map(|c| (edit_distance(name, c), c))
+        .filter(|&(d, _)| d <= limit)
+        .min_by_key(|&(d, c)| (d, c.len()))
+        .map(|(_, c)| c)
+}

@@ -1,0 +1,160 @@
+//! The command line as a user runs it (SPEC §2): exit statuses, the error
+//! format, `eval --json`, `compile --emit`.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn isoc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_isoc"))
+        .args(args)
+        .output()
+        .expect("run isoc")
+}
+
+/// A fresh temporary file holding `text`.
+fn temp_file(name: &str, text: &[u8]) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("isoc-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8(o.stdout.clone()).unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8(o.stderr.clone()).unwrap()
+}
+
+#[test]
+fn eval_point_json_matches_hand_computation() {
+    let f = temp_file(
+        "sphere.iso",
+        b"domain [-2, 2]^3;\nsurface x^2 + y^2 + z^2 - 1;\n",
+    );
+    let o = isoc(&["eval", f.to_str().unwrap(), "0.5", "-1", "2", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(j["value"].as_f64().unwrap(), 0.25 + 1.0 + 4.0 - 1.0);
+    let g: Vec<f64> = j["grad"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert_eq!(g, vec![1.0, -2.0, 4.0]);
+}
+
+#[test]
+fn eval_uses_time() {
+    let f = temp_file("pulse.iso", b"domain [-2, 2]^3;\nsurface x + 10*t;\n");
+    let o = isoc(&["eval", f.to_str().unwrap(), "1", "0", "0", "0.5", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(j["value"].as_f64().unwrap(), 6.0);
+}
+
+#[test]
+fn eval_box_json_encloses() {
+    let f = temp_file(
+        "sphere2.iso",
+        b"domain [-2, 2]^3;\nsurface x^2 + y^2 + z^2 - 1;\n",
+    );
+    let o = isoc(&[
+        "eval",
+        f.to_str().unwrap(),
+        "--box",
+        "-1,2,0,1,0.5,0.5",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let v = &j["value"];
+    // x^2 ∈ [0, 4], y^2 ∈ [0, 1], z^2 = 0.25: f ∈ [-0.75, 4.25].
+    assert!(v[0].as_f64().unwrap() <= -0.75 && v[1].as_f64().unwrap() >= 4.25);
+    assert!(v[0].as_f64().unwrap() > -0.76 && v[1].as_f64().unwrap() < 4.26);
+    // ∂f/∂x = 2x ∈ [-2, 4].
+    let gx = &j["grad"][0];
+    assert!(gx[0].as_f64().unwrap() <= -2.0 && gx[1].as_f64().unwrap() >= 4.0);
+    assert_eq!(j["defined"], serde_json::Value::Bool(true));
+}
+
+#[test]
+fn errors_are_located_with_a_caret_and_exit_1() {
+    let f = temp_file("bad.iso", b"domain [-1, 1]^3;\nsurface x + qq;\n");
+    let o = isoc(&["compile", f.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    let first = e.lines().next().unwrap();
+    assert!(
+        first.ends_with("bad.iso:2:13: error: unknown name `qq`")
+            || (first.contains("bad.iso:2:13: error:") && first.contains("qq")),
+        "{e}"
+    );
+    assert!(e.contains("surface x + qq;"), "{e}");
+    assert!(e.contains('^'), "{e}");
+    assert!(stdout(&o).is_empty());
+}
+
+#[test]
+fn bad_options_are_errors_not_panics() {
+    let f = temp_file(
+        "ok.iso",
+        b"domain [-1, 1]^3;\nparam r = 1;\nsurface x - r;\n",
+    );
+    let p = f.to_str().unwrap();
+    for args in [
+        vec!["compile", p, "--set", "nope=1"],
+        vec!["compile", p, "--set", "r=abc"],
+        vec!["compile", p, "--domain", "1,0,0,1,0,1"],
+        vec!["eval", p, "1", "2"],
+        vec!["eval", p, "--box", "0,1,0,1"],
+        vec!["compile", "/nonexistent/file.iso"],
+    ] {
+        let o = isoc(&args);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("error"), "{args:?}");
+    }
+    let o = isoc(&["eval", p, "3", "0", "0", "--set", "r=2.5", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(j["value"].as_f64().unwrap(), 0.5);
+}
+
+#[test]
+fn emit_ir_round_trips_through_the_text_form() {
+    let f = temp_file(
+        "ir.iso",
+        b"domain [-1, 1]^3;\nlet a = 2*x^2 + y^2 + z^2 - 1;\nsurface a^3 - (0.1*x^2 + y^2)*z^3;\n",
+    );
+    let o = isoc(&["compile", f.to_str().unwrap(), "--emit", "ir"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    let p = isoc::ir::text::parse(&text).unwrap();
+    assert_eq!(p.to_string(), text);
+    let s = isoc::Surface::compile(
+        &std::fs::read_to_string(&f).unwrap(),
+        "ir.iso",
+        &Default::default(),
+    )
+    .unwrap();
+    assert_eq!(p, s.program);
+    // 0.1 is kept with its enclosure.
+    assert!(text.contains("const 0.1 ["), "{text}");
+}
+
+#[test]
+fn emit_ast_prints_something_for_every_statement() {
+    let f = temp_file(
+        "ast.iso",
+        b"domain [-1, 1], [-2, 2], [-3, 3];\nparam r = 2;\nfn g(x, c) = x*c;\nlet a = g(y, r);\nsurface a = 1;\n",
+    );
+    let o = isoc(&["compile", f.to_str().unwrap(), "--emit", "ast"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    for word in ["domain", "param", "fn", "let", "surface"] {
+        assert!(text.contains(word), "{word} missing in\n{text}");
+    }
+}

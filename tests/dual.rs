@@ -1,0 +1,178 @@
+//! The dual grid (Schaefer & Warren 2004) on octrees built by hand: a
+//! uniform tree gives exactly the (2^L − 1)³ cubes between leaf centres;
+//! an adaptive tree gives dual cells whose corners are leaves that touch
+//! the cell's vertex, and every pair of face-adjacent leaves is joined by
+//! a dual edge.
+
+use std::collections::HashSet;
+
+use glam::DVec3;
+use isoc::dual;
+use isoc::octree::{Leaf, Node, Octree, OctreeStats};
+
+/// An octree over [0,1]³ split wherever `split(level, ijk)` says, to at
+/// most `max` levels.
+fn tree(max: u8, split: &dyn Fn(u8, [u32; 3]) -> bool) -> Octree {
+    let mut nodes = vec![Node {
+        first_child: 0,
+        level: 0,
+        ijk: [0; 3],
+        leaf: None,
+    }];
+    let mut i = 0;
+    while i < nodes.len() {
+        let n = nodes[i];
+        if n.level < max && split(n.level, n.ijk) {
+            nodes[i].first_child = nodes.len() as u32;
+            for c in 0..8u32 {
+                nodes.push(Node {
+                    first_child: 0,
+                    level: n.level + 1,
+                    ijk: [0, 1, 2].map(|k| n.ijk[k] * 2 + ((c >> k) & 1)),
+                    leaf: None,
+                });
+            }
+        } else {
+            nodes[i].leaf = Some(Leaf::Surface);
+        }
+        i += 1;
+    }
+    Octree {
+        nodes,
+        lo: DVec3::ZERO,
+        size: DVec3::ONE,
+        stats: OctreeStats::default(),
+    }
+}
+
+fn cells(t: &Octree) -> Vec<[u32; 8]> {
+    let mut v = Vec::new();
+    dual::for_each_cell(t, |c| v.push(c));
+    v
+}
+
+#[test]
+fn uniform_tree_gives_the_grid_of_centres() {
+    for level in 1..=4u8 {
+        let t = tree(level, &|_, _| true);
+        let cs = cells(&t);
+        let side = (1u32 << level) - 1;
+        assert_eq!(cs.len() as u32, side * side * side, "level {level}");
+        for c in &cs {
+            let base = t.nodes[c[0] as usize].ijk;
+            for (i, &l) in c.iter().enumerate() {
+                let ijk = t.nodes[l as usize].ijk;
+                let want = [0, 1, 2].map(|k| base[k] + ((i as u32 >> k) & 1));
+                assert_eq!(ijk, want, "corner {i} of {c:?}");
+            }
+        }
+        let unique: HashSet<_> = cs.iter().collect();
+        assert_eq!(unique.len(), cs.len());
+    }
+}
+
+/// Corners of an adaptive tree's dual cell touch the cell's shared vertex:
+/// corner i's box has the vertex on its side given by the bits of i.
+#[test]
+fn adaptive_tree_cells_surround_a_vertex() {
+    // Refine towards a corner and along a diagonal plane.
+    let split = |level: u8, ijk: [u32; 3]| {
+        let s = (1u32 << level) as f64;
+        let c = ijk.map(|k| (k as f64 + 0.5) / s);
+        level < 2 || (c[0] + c[1] < 0.7 && level < 5) || (c[2] > 0.8 && level < 4)
+    };
+    let t = tree(5, &split);
+    let cs = cells(&t);
+    assert!(!cs.is_empty());
+    for c in &cs {
+        // The shared vertex, read off corner pairs whose leaves differ.
+        let boxes: Vec<(DVec3, DVec3)> = c
+            .iter()
+            .map(|&l| t.cell_box(&t.nodes[l as usize]))
+            .collect();
+        let mut v = DVec3::splat(f64::NAN);
+        for i in 0..8usize {
+            for k in 0..3 {
+                let j = i | (1 << k);
+                if j != i && c[i] != c[j] {
+                    assert!(
+                        v[k].is_nan() || v[k] == boxes[i].1[k],
+                        "{c:?}: inconsistent vertex"
+                    );
+                    v[k] = boxes[i].1[k];
+                    assert_eq!(
+                        boxes[j].0[k], v[k],
+                        "{c:?}: corners {i} and {j} are not adjacent"
+                    );
+                }
+            }
+        }
+        assert!(
+            !v.is_nan(),
+            "{c:?}: a dual cell must change leaf along every axis"
+        );
+        // A leaf repeated across an axis spans the vertex along it.
+        for i in 0..8usize {
+            for k in 0..3 {
+                let (lo, hi) = boxes[i];
+                assert!(
+                    lo[k] <= v[k] && v[k] <= hi[k],
+                    "{c:?}: corner {i} does not touch {v}"
+                );
+                let j = i ^ (1 << k);
+                if c[i] == c[j] {
+                    assert!(
+                        lo[k] < v[k] && v[k] < hi[k],
+                        "{c:?}: repeated corner {i} not across {v}"
+                    );
+                } else if (i >> k) & 1 == 0 {
+                    assert_eq!(hi[k], v[k]);
+                } else {
+                    assert_eq!(lo[k], v[k]);
+                }
+            }
+        }
+    }
+    // Every pair of face-adjacent leaves is a dual edge of some cell.
+    let mut edges = HashSet::new();
+    for c in &cs {
+        for i in 0..8usize {
+            for k in 0..3 {
+                let j = i | (1 << k);
+                if j != i {
+                    let (a, b) = (c[i].min(c[j]), c[i].max(c[j]));
+                    edges.insert((a, b));
+                }
+            }
+        }
+    }
+    let leaves: Vec<u32> = (0..t.nodes.len() as u32)
+        .filter(|&i| t.nodes[i as usize].is_leaf())
+        .collect();
+    for &a in &leaves {
+        for &b in &leaves {
+            if a >= b {
+                continue;
+            }
+            let (la, ha) = t.cell_box(&t.nodes[a as usize]);
+            let (lb, hb) = t.cell_box(&t.nodes[b as usize]);
+            // Face-adjacent: touch along one axis, overlap with positive
+            // area in the other two.
+            let mut touch = 0;
+            let mut overlap = 0;
+            for k in 0..3 {
+                if ha[k] == lb[k] || hb[k] == la[k] {
+                    touch += 1;
+                } else if la[k].max(lb[k]) < ha[k].min(hb[k]) {
+                    overlap += 1;
+                }
+            }
+            if touch == 1 && overlap == 2 {
+                assert!(
+                    edges.contains(&(a, b)),
+                    "leaves {a} and {b} share a face but no dual edge"
+                );
+            }
+        }
+    }
+}
