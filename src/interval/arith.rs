@@ -191,7 +191,7 @@ fn powi_pos(a: Interval, n: u64) -> Interval {
     if n == 0 {
         return Interval::point(1.0);
     }
-    let even = n % 2 == 0;
+    let even = n.is_multiple_of(2);
     if !even {
         // Odd powers are increasing.
         return Interval::new(chain(a.lo, n).lo, chain(a.hi, n).hi);

@@ -158,13 +158,11 @@ pub fn sqrt(x: f64, d: Dir) -> f64 {
 /// Bound of a correctly rounded function value `r = RN(f(x))`: one ulp
 /// outward unless the caller knows the value is exact.
 pub fn cr(r: f64, exact: bool, d: Dir) -> f64 {
-    if exact || r.is_infinite() && d == Dir::Up && r > 0.0 {
-        r
-    } else if r.is_infinite() && d == Dir::Down && r < 0.0 {
-        r
-    } else {
-        step(r, d)
-    }
+    // An infinite result is a valid bound on its own side (overflow or an
+    // exact infinite limit); on the other side it steps to ±f64::MAX.
+    let keep =
+        exact || (r == f64::INFINITY && d == Dir::Up) || (r == f64::NEG_INFINITY && d == Dir::Down);
+    if keep { r } else { step(r, d) }
 }
 
 #[cfg(test)]
