@@ -259,7 +259,11 @@ fn samples(b: &[Interval; 4], seed: u64) -> Vec<[f64; 4]> {
 
 fn config() -> ProptestConfig {
     ProptestConfig {
-        cases: 10_000,
+        // At least 10,000 cases; `PROPTEST_CASES` overrides.
+        cases: std::env::var("PROPTEST_CASES")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(10_000),
         failure_persistence: None,
         ..ProptestConfig::default()
     }
@@ -493,7 +497,14 @@ fn compile_info_is_reported() {
         ],
         output: Value(2),
     };
-    let k = Kernels::compile_with(&p, &isoc::jit::JitOptions { keep_text: true }).unwrap();
+    let k = Kernels::compile_with(
+        &p,
+        &isoc::jit::JitOptions {
+            keep_text: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     assert_eq!(k.info().len(), 6);
     for i in k.info() {
         assert!(i.code_bytes > 0, "{}", i.name);

@@ -13,22 +13,23 @@
 //! differentiable* on the whole box (`abs`, `min`, `max` at a kink, `sqrt`
 //! at 0, …).
 
-use cranelift_codegen::ir::{InstBuilder, Value, types};
+use cranelift_codegen::ir::{InstBuilder, Value};
 
 use super::Env;
-use super::interval::{self, Iv};
+use super::interval::{self, Flag, Iv};
 use crate::ir::{BinOp, Op, Program, UnOp};
 
 /// `(F, Fx, Fy, Fz)`.
 pub(super) type Dual = [Iv; 4];
 
 /// Emits the body; returns the output tuple and the decoration (i8).
-pub(super) fn lower(env: &mut Env, prog: &Program, input: [Iv; 4]) -> (Dual, Value) {
-    let mut ok = env.b.ins().iconst(types::I8, 1);
+pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (Dual, Value) {
+    let flags_in: [Flag; 4] = input.map(|(_, f)| f);
+    let input: [Iv; 4] = input.map(|(iv, _)| iv);
     let zero = env.b.ins().f64const(0.0);
     let one = env.b.ins().f64const(1.0);
     let z = (zero, zero);
-    let mut vals: Vec<Dual> = Vec::with_capacity(prog.len());
+    let mut vals: Vec<(Dual, Flag)> = Vec::with_capacity(prog.len());
     for (i, op) in prog.insts.iter().enumerate() {
         let (v, d): (Dual, Option<Value>) = match *op {
             Op::Var(var) => {
@@ -43,14 +44,14 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [Iv; 4]) -> (Dual, Val
                 ([v, z, z, z], d)
             }
             Op::Unary(UnOp::Neg, a) => {
-                let a = vals[a.index()];
+                let a = vals[a.index()].0;
                 (
                     a.map(|(l, h)| (env.b.ins().fneg(h), env.b.ins().fneg(l))),
                     None,
                 )
             }
             Op::Unary(UnOp::Square, a) => {
-                let a = vals[a.index()];
+                let a = vals[a.index()].0;
                 let (f, _) = interval::unary(env, UnOp::Square, a[0]);
                 // d(a²) = (2a)·da; doubling is exact (or overflows to ±∞,
                 // which is still an enclosure).
@@ -65,7 +66,7 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [Iv; 4]) -> (Dual, Val
                 (g, None)
             }
             Op::Binary(op @ (BinOp::Add | BinOp::Sub | BinOp::Mul), a, b) => {
-                let (a, b) = (vals[a.index()], vals[b.index()]);
+                let (a, b) = (vals[a.index()].0, vals[b.index()].0);
                 let mut g = [z; 4];
                 if op == BinOp::Mul {
                     g[0] = interval::mul(env, a[0], b[0]);
@@ -81,26 +82,33 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [Iv; 4]) -> (Dual, Val
                 }
                 (g, None)
             }
-            Op::Unary(u, a) => env.call_gd(super::helpers::unop_code(u), vals[a.index()], None, 0),
+            Op::Unary(u, a) => {
+                env.call_gd(super::helpers::unop_code(u), vals[a.index()].0, None, 0)
+            }
             Op::Binary(op, a, b) => env.call_gd(
                 super::helpers::binop_code(op) + GD_BINARY_BASE,
-                vals[a.index()],
-                Some(vals[b.index()]),
+                vals[a.index()].0,
+                Some(vals[b.index()].0),
                 0,
             ),
             Op::Powi(a, n) => env.call_gd(
                 super::helpers::GD_POWI_CODE + GD_BINARY_BASE,
-                vals[a.index()],
+                vals[a.index()].0,
                 None,
                 n,
             ),
         };
-        if let Some(d) = d {
-            ok = env.b.ins().band(ok, d);
+        let mut d = match *op {
+            Op::Var(var) => flags_in[var.index()],
+            _ => d,
+        };
+        for a in op.args() {
+            d = interval::and(env, d, vals[a.index()].1);
         }
-        vals.push(v);
+        vals.push((v, d));
     }
-    (vals[prog.output.index()], ok)
+    let (g, d) = vals[prog.output.index()];
+    (g, interval::flag_value(env, d))
 }
 
 /// Codes at or above this go to the binary gradient helper (minus it).

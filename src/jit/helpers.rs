@@ -11,11 +11,13 @@
 //! The point helpers are the reference evaluator's own per-op functions
 //! ([`crate::eval::point`]) and the interval helpers the interval module's
 //! per-op enclosures ([`crate::interval`]), so the JIT and the interpreter
-//! cannot disagree on them. The gradient helpers apply the chain rule with
-//! those same enclosures.
+//! cannot disagree on them. The gradient helpers run the reference
+//! gradient evaluator's own per-op rules ([`crate::eval::grad::step`]) on
+//! decorated intervals.
 
-use crate::interval::{self, Interval};
-use crate::ir::{BinOp, UnOp};
+use crate::eval::grad::{self, Dual};
+use crate::interval::{self, DecInterval, Interval};
+use crate::ir::{BinOp, Op, UnOp, Value};
 
 /// `(name, address)` of every helper, for `JITBuilder::symbols`.
 pub fn symbols() -> [(&'static str, *const u8); 7] {
@@ -122,22 +124,14 @@ unsafe fn write_iv(out: *mut f64, r: Interval) {
     }
 }
 
-/// An interval with its three partial derivatives.
-#[derive(Clone, Copy)]
-struct Dual {
-    v: Interval,
-    d: [Interval; 3],
-}
-
 /// # Safety
 /// `p` points to 8 readable f64.
-unsafe fn read_dual(p: *const f64) -> Dual {
+unsafe fn read_dual(p: *const f64) -> Dual<DecInterval> {
     // SAFETY: guaranteed by the caller.
     let r = unsafe { std::slice::from_raw_parts(p, 8) };
-    let iv = |i: usize| Interval {
-        lo: r[2 * i],
-        hi: r[2 * i + 1],
-    };
+    // Operand flags are tracked by the kernel; here every operand is
+    // "defined" and the result's flags are the op's own.
+    let iv = |i: usize| DecInterval::new(Interval::new(r[2 * i], r[2 * i + 1]), true);
     Dual {
         v: iv(0),
         d: [iv(1), iv(2), iv(3)],
@@ -146,219 +140,24 @@ unsafe fn read_dual(p: *const f64) -> Dual {
 
 /// # Safety
 /// `p` points to 8 writable f64.
-unsafe fn write_dual(p: *mut f64, g: Dual) {
+unsafe fn write_dual(p: *mut f64, g: &Dual<DecInterval>) -> u8 {
     // SAFETY: guaranteed by the caller.
     let w = unsafe { std::slice::from_raw_parts_mut(p, 8) };
+    let mut ok = true;
     for (i, iv) in std::iter::once(g.v).chain(g.d).enumerate() {
-        w[2 * i] = iv.lo;
-        w[2 * i + 1] = iv.hi;
+        w[2 * i] = iv.iv.lo;
+        w[2 * i + 1] = iv.iv.hi;
+        ok &= iv.defined;
     }
+    ok as u8
 }
 
-/// Interval arithmetic that ANDs every decoration into `ok`.
-struct Ops {
-    ok: bool,
-}
-
-impl Ops {
-    fn b(&mut self, op: BinOp, a: Interval, b: Interval) -> Interval {
-        let (r, d) = interval::binary(op, a, b);
-        self.ok &= d;
-        r
-    }
-    fn u(&mut self, op: UnOp, a: Interval) -> Interval {
-        let (r, d) = interval::unary(op, a);
-        self.ok &= d;
-        r
-    }
-    fn powi(&mut self, a: Interval, n: i64) -> Interval {
-        let (r, d) = interval::powi(a, n);
-        self.ok &= d;
-        r
-    }
-    /// `(f(A), f'(A)·dA)`.
-    fn chain(&mut self, v: Interval, fprime: Interval, a: &Dual) -> Dual {
-        let d = a.d.map(|di| self.b(BinOp::Mul, fprime, di));
-        Dual { v, d }
-    }
-}
-
-fn point(c: f64) -> Interval {
-    Interval { lo: c, hi: c }
-}
-
-fn hull(a: Interval, b: Interval) -> Interval {
-    Interval {
-        lo: a.lo.min(b.lo),
-        hi: a.hi.max(b.hi),
-    }
-}
-
-fn unary_dual(op: UnOp, a: &Dual, o: &mut Ops) -> Dual {
-    use BinOp::{Add, Div, Mul, Sub};
-    use UnOp::*;
-    let one = point(1.0);
-    match op {
-        Neg => Dual {
-            v: o.u(Neg, a.v),
-            d: a.d.map(|d| o.u(Neg, d)),
-        },
-        Abs => {
-            let v = o.u(Abs, a.v);
-            let s = if a.v.lo > 0.0 {
-                one
-            } else if a.v.hi < 0.0 {
-                point(-1.0)
-            } else {
-                // |x| is not differentiable at 0.
-                o.ok = false;
-                Interval { lo: -1.0, hi: 1.0 }
-            };
-            o.chain(v, s, a)
-        }
-        Sqrt => {
-            let v = o.u(Sqrt, a.v);
-            let two_v = o.b(Mul, point(2.0), v);
-            let f = o.b(Div, one, two_v);
-            o.chain(v, f, a)
-        }
-        Square => {
-            let v = o.u(Square, a.v);
-            let f = o.b(Mul, point(2.0), a.v);
-            o.chain(v, f, a)
-        }
-        Exp => {
-            let v = o.u(Exp, a.v);
-            o.chain(v, v, a)
-        }
-        Log => {
-            let v = o.u(Log, a.v);
-            let f = o.b(Div, one, a.v);
-            o.chain(v, f, a)
-        }
-        Sin => {
-            let v = o.u(Sin, a.v);
-            let f = o.u(Cos, a.v);
-            o.chain(v, f, a)
-        }
-        Cos => {
-            let v = o.u(Cos, a.v);
-            let s = o.u(Sin, a.v);
-            let f = o.u(Neg, s);
-            o.chain(v, f, a)
-        }
-        Tan => {
-            let v = o.u(Tan, a.v);
-            let t2 = o.u(Square, v);
-            let f = o.b(Add, one, t2);
-            o.chain(v, f, a)
-        }
-        Asin | Acos => {
-            let v = o.u(op, a.v);
-            let x2 = o.u(Square, a.v);
-            let r = o.b(Sub, one, x2);
-            let s = o.u(Sqrt, r);
-            let mut f = o.b(Div, one, s);
-            if op == Acos {
-                f = o.u(Neg, f);
-            }
-            o.chain(v, f, a)
-        }
-        Atan => {
-            let v = o.u(Atan, a.v);
-            let x2 = o.u(Square, a.v);
-            let r = o.b(Add, one, x2);
-            let f = o.b(Div, one, r);
-            o.chain(v, f, a)
-        }
-    }
-}
-
-fn binary_dual(op: BinOp, a: &Dual, b: &Dual, o: &mut Ops) -> Dual {
-    use BinOp::*;
-    let v = o.b(op, a.v, b.v);
-    let d = match op {
-        Add | Sub => [0, 1, 2].map(|i| o.b(op, a.d[i], b.d[i])),
-        Mul => [0, 1, 2].map(|i| {
-            let p = o.b(Mul, a.v, b.d[i]);
-            let q = o.b(Mul, a.d[i], b.v);
-            o.b(Add, p, q)
-        }),
-        Div => [0, 1, 2].map(|i| {
-            // (dA − F·dB) / B
-            let p = o.b(Mul, v, b.d[i]);
-            let q = o.b(Sub, a.d[i], p);
-            o.b(Div, q, b.v)
-        }),
-        Min | Max => {
-            let a_wins = if op == Min {
-                a.v.hi < b.v.lo
-            } else {
-                a.v.lo > b.v.hi
-            };
-            let b_wins = if op == Min {
-                b.v.hi < a.v.lo
-            } else {
-                b.v.lo > a.v.hi
-            };
-            if a_wins {
-                a.d
-            } else if b_wins {
-                b.d
-            } else {
-                // Not differentiable where a = b: enclose both branches.
-                o.ok = false;
-                [0, 1, 2].map(|i| hull(a.d[i], b.d[i]))
-            }
-        }
-        Atan2 => {
-            // atan2(y, x)' = (x·dy − y·dx) / (x² + y²), y = a, x = b.
-            let x2 = o.u(UnOp::Square, b.v);
-            let y2 = o.u(UnOp::Square, a.v);
-            let r2 = o.b(Add, x2, y2);
-            [0, 1, 2].map(|i| {
-                let p = o.b(Mul, b.v, a.d[i]);
-                let q = o.b(Mul, a.v, b.d[i]);
-                let n = o.b(Sub, p, q);
-                o.b(Div, n, r2)
-            })
-        }
-        Pow => {
-            // d(a^b) = a^b · (db·ln a + b·da/a)
-            let ln = o.u(UnOp::Log, a.v);
-            let b_over_a = o.b(Div, b.v, a.v);
-            [0, 1, 2].map(|i| {
-                let p = o.b(Mul, b.d[i], ln);
-                let q = o.b(Mul, b_over_a, a.d[i]);
-                let s = o.b(Add, p, q);
-                o.b(Mul, v, s)
-            })
-        }
-    };
-    Dual { v, d }
-}
-
-fn powi_dual(a: &Dual, n: i64, o: &mut Ops) -> Dual {
-    let v = o.powi(a.v, n);
-    if n == 0 {
-        return Dual {
-            v,
-            d: [point(0.0); 3],
-        };
-    }
-    let pm1 = o.powi(a.v, n - 1);
-    // n is exact in f64 up to 2^53; beyond, enclose it.
-    let nf = n as f64;
-    let n_iv = if nf.abs() <= 9007199254740992.0 {
-        point(nf)
-    } else {
-        Interval {
-            lo: nf.next_down(),
-            hi: nf.next_up(),
-        }
-    };
-    let f = o.b(BinOp::Mul, n_iv, pm1);
-    o.chain(v, f, a)
+/// Runs the reference evaluator's derivative rules ([`grad::step`]) on one
+/// op whose operands are `v0` (and `v1`).
+fn step(op: &Op, vals: &[Dual<DecInterval>]) -> Dual<DecInterval> {
+    // The op reads no input variable; `input` is never consulted.
+    let input = [DecInterval::new(Interval::ENTIRE, false); 4];
+    grad::step(op, vals, input)
 }
 
 /// # Safety
@@ -366,20 +165,17 @@ fn powi_dual(a: &Dual, n: i64, o: &mut Ops) -> Dual {
 unsafe extern "C" fn gd_unary(op: u32, a: *const f64, out: *mut f64) -> u8 {
     // SAFETY: the kernel passes stack slots of 8 f64.
     let a = unsafe { read_dual(a) };
-    let mut o = Ops { ok: true };
     let r = match UnOp::ALL.get(op as usize) {
-        Some(&op) => unary_dual(op, &a, &mut o),
-        None => {
-            o.ok = false;
-            Dual {
-                v: ENTIRE,
-                d: [ENTIRE; 3],
-            }
-        }
+        Some(&u) => step(&Op::Unary(u, Value(0)), &[a]),
+        None => unknown(),
     };
     // SAFETY: as above.
-    unsafe { write_dual(out, r) };
-    o.ok as u8
+    unsafe { write_dual(out, &r) }
+}
+
+fn unknown() -> Dual<DecInterval> {
+    let e = DecInterval::new(Interval::ENTIRE, false);
+    Dual { v: e, d: [e; 3] }
 }
 
 /// # Safety
@@ -388,26 +184,18 @@ unsafe extern "C" fn gd_unary(op: u32, a: *const f64, out: *mut f64) -> u8 {
 unsafe extern "C" fn gd_binary(op: u32, a: *const f64, b: *const f64, n: i64, out: *mut f64) -> u8 {
     // SAFETY: the kernel passes stack slots of 8 f64.
     let a = unsafe { read_dual(a) };
-    let mut o = Ops { ok: true };
     let r = if op == GD_POWI_CODE {
-        powi_dual(&a, n, &mut o)
+        step(&Op::Powi(Value(0), n), &[a])
     } else {
         match BinOp::ALL.get(op as usize) {
             Some(&bop) => {
                 // SAFETY: as above; `b` is valid for every binary code.
                 let b = unsafe { read_dual(b) };
-                binary_dual(bop, &a, &b, &mut o)
+                step(&Op::Binary(bop, Value(0), Value(1)), &[a, b])
             }
-            None => {
-                o.ok = false;
-                Dual {
-                    v: ENTIRE,
-                    d: [ENTIRE; 3],
-                }
-            }
+            None => unknown(),
         }
     };
     // SAFETY: as above.
-    unsafe { write_dual(out, r) };
-    o.ok as u8
+    unsafe { write_dual(out, &r) }
 }

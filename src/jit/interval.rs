@@ -4,7 +4,9 @@
 //! accumulator for the decoration "defined and continuous on the whole box"
 //! (the AND of every op's flag).
 //!
-//! Inline, outward rounded with [`super::rounding`]:
+//! Inline, outward rounded with [`super::rounding`] (`down`/`up`: the
+//! round-to-nearest result moved one ulp outward only when its error-free
+//! transformation says it was inexact):
 //!
 //! | op | rule |
 //! |---|---|
@@ -14,9 +16,9 @@
 //! | `mul` | min/max of the four products (a NaN product `0·∞` counts as 0), widened |
 //! | `square` | `[down(mig²) ∨ 0, up(mag²)]` |
 //! | `sqrt` | `[down(√max(lo,0)) ∨ 0, up(√hi)]`, empty when `hi < 0`; defined iff `lo ≥ 0` |
-//! | `powi a n`, `n > 0` | exact monotone rules on `mig`/`mag` (even `n`) or the signed bounds (odd `n`), each product of the repeated squaring widened in its direction |
+//! | `powi a n`, `1 ≤ n ≤ 8` | exact monotone rules on `mig`/`mag` (even `n`) or the signed bounds (odd `n`), each product of the repeated squaring widened in its direction |
 //!
-//! Everything else (`div`, `powi` with `n < 0`, transcendentals, `atan2`,
+//! Everything else (`div`, other `powi`, transcendentals, `atan2`,
 //! `pow`) calls [`crate::interval`]'s per-op enclosures through
 //! [`super::helpers`], which return the op's decoration.
 
@@ -24,23 +26,70 @@ use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{InstBuilder, Value, types};
 
 use super::{Env, rounding};
+use crate::interval::Interval;
 use crate::ir::{BinOp, Op, Program, UnOp};
 
 /// An interval as two SSA values.
 pub(super) type Iv = (Value, Value);
 
 /// Emits the body; returns the output interval and the decoration (i8).
-pub(super) fn lower(env: &mut Env, prog: &Program, input: [Iv; 4]) -> (Iv, Value) {
-    let mut ok = env.b.ins().iconst(types::I8, 1);
-    let mut vals: Vec<Iv> = Vec::with_capacity(prog.len());
+/// Each value carries its own flag (`None`: statically true), the AND of
+/// its operands' flags and its op's, so that only ops the output depends
+/// on can clear it — as in the reference evaluator.
+pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (Iv, Value) {
+    let mut vals: Vec<(Iv, Flag)> = Vec::with_capacity(prog.len());
+    let ivs: [Iv; 4] = input.map(|(iv, _)| iv);
     for (i, op) in prog.insts.iter().enumerate() {
-        let (v, d) = lower_op(env, i, op, &vals, &input);
-        if let Some(d) = d {
-            ok = env.b.ins().band(ok, d);
+        let (v, own) = lower_op(env, i, op, &vals, &ivs);
+        let mut d = match *op {
+            Op::Var(var) => input[var.index()].1,
+            _ => own,
+        };
+        for a in op.args() {
+            d = and(env, d, vals[a.index()].1);
         }
-        vals.push(v);
+        vals.push((v, d));
     }
-    (vals[prog.output.index()], ok)
+    let (iv, d) = vals[prog.output.index()];
+    (iv, flag_value(env, d))
+}
+
+/// A decoration: `None` is statically true, else an i8 that is 0 or 1.
+pub(super) type Flag = Option<Value>;
+
+/// `a ∧ b`.
+pub(super) fn and(env: &mut Env, a: Flag, b: Flag) -> Flag {
+    match (a, b) {
+        (None, x) | (x, None) => x,
+        (Some(a), Some(b)) => Some(env.b.ins().band(a, b)),
+    }
+}
+
+/// The flag as an i8 SSA value.
+pub(super) fn flag_value(env: &mut Env, f: Flag) -> Value {
+    match f {
+        Some(v) => v,
+        None => env.b.ins().iconst(types::I8, 1),
+    }
+}
+
+/// Normalises an input interval as [`crate::interval::Interval::normalize`]
+/// does: a NaN bound gives the entire line, undefined; `lo = +∞` becomes
+/// `MAX`, `hi = −∞` becomes `−MAX`.
+pub(super) fn normalize(env: &mut Env, (lo, hi): Iv) -> (Iv, Flag) {
+    let b = &mut env.b;
+    let ok = b.ins().fcmp(FloatCC::Ordered, lo, hi);
+    let pinf = b.ins().f64const(f64::INFINITY);
+    let ninf = b.ins().f64const(f64::NEG_INFINITY);
+    let max = b.ins().f64const(f64::MAX);
+    let nmax = b.ins().f64const(-f64::MAX);
+    let lo_inf = b.ins().fcmp(FloatCC::Equal, lo, pinf);
+    let hi_inf = b.ins().fcmp(FloatCC::Equal, hi, ninf);
+    let l = b.ins().select(lo_inf, max, lo);
+    let h = b.ins().select(hi_inf, nmax, hi);
+    let l = b.ins().select(ok, l, ninf);
+    let h = b.ins().select(ok, h, pinf);
+    ((l, h), Some(ok))
 }
 
 /// One op: its interval and, when the op can be undefined, its flag.
@@ -48,27 +97,27 @@ pub(super) fn lower_op(
     env: &mut Env,
     i: usize,
     op: &Op,
-    vals: &[Iv],
+    vals: &[(Iv, Flag)],
     input: &[Iv; 4],
 ) -> (Iv, Option<Value>) {
     match *op {
         Op::Var(var) => (input[var.index()], None),
         Op::Const(c) => {
             let iv = (env.pool_load(i, 1), env.pool_load(i, 2));
-            let d = if c.defined {
+            let d = if c.defined && Interval::new(c.lo, c.hi).normalize().1 {
                 None
             } else {
                 Some(env.b.ins().iconst(types::I8, 0))
             };
             (iv, d)
         }
-        Op::Unary(u, a) => unary(env, u, vals[a.index()]),
-        Op::Binary(op, a, b) => binary(env, op, vals[a.index()], vals[b.index()]),
+        Op::Unary(u, a) => unary(env, u, vals[a.index()].0),
+        Op::Binary(op, a, b) => binary(env, op, vals[a.index()].0, vals[b.index()].0),
         Op::Powi(a, n) => {
-            let a = vals[a.index()];
+            let a = vals[a.index()].0;
             if n == 0 {
                 ((env.pool_load(i, 1), env.pool_load(i, 2)), None)
-            } else if n > 0 {
+            } else if (1..=INLINE_POWI_MAX).contains(&n) {
                 (powi(env, a, n as u64), None)
             } else {
                 env.call_iv_powi(a, n)
@@ -90,11 +139,11 @@ pub(super) fn unary(env: &mut Env, u: UnOp, (lo, hi): Iv) -> (Iv, Option<Value>)
         UnOp::Square => {
             let (mig, mag) = mig_mag(env, (lo, hi));
             let b = &mut env.b;
-            let l = b.ins().fmul(mig, mig);
-            let h = b.ins().fmul(mag, mag);
-            let l = rounding::down(b, l);
+            let (l, lt) = rounding::mul(b, mig, mig);
+            let (h, ht) = rounding::mul(b, mag, mag);
+            let l = rounding::lower(b, l, Some(lt));
             let l = clamp0(b, l);
-            let h = rounding::up(b, h);
+            let h = rounding::upper(b, h, Some(ht));
             ((l, h), None)
         }
         UnOp::Sqrt => {
@@ -102,11 +151,11 @@ pub(super) fn unary(env: &mut Env, u: UnOp, (lo, hi): Iv) -> (Iv, Option<Value>)
             let zero = b.ins().f64const(0.0);
             let defined = b.ins().fcmp(FloatCC::GreaterThanOrEqual, lo, zero);
             let l0 = b.ins().fmax(lo, zero);
-            let l = b.ins().sqrt(l0);
-            let l = rounding::down(b, l);
+            let (l, lt) = rounding::sqrt(b, l0);
+            let l = rounding::lower(b, l, Some(lt));
             let l = clamp0(b, l);
-            let h = b.ins().sqrt(hi);
-            let h = rounding::up(b, h);
+            let (h, ht) = rounding::sqrt(b, hi);
+            let h = rounding::upper(b, h, Some(ht));
             // hi < 0: nowhere defined, the empty interval [+∞, −∞].
             let empty = b.ins().fcmp(FloatCC::LessThan, hi, zero);
             let pinf = b.ins().f64const(f64::INFINITY);
@@ -123,14 +172,14 @@ pub(super) fn binary(env: &mut Env, op: BinOp, a: Iv, bv: Iv) -> (Iv, Option<Val
     let b = &mut env.b;
     match op {
         BinOp::Add => {
-            let l = b.ins().fadd(a.0, bv.0);
-            let h = b.ins().fadd(a.1, bv.1);
-            ((rounding::down(b, l), rounding::up(b, h)), None)
+            let l = rounding::add(b, a.0, bv.0);
+            let h = rounding::add(b, a.1, bv.1);
+            ((rounding::lower(b, l, None), rounding::upper(b, h, None)), None)
         }
         BinOp::Sub => {
-            let l = b.ins().fsub(a.0, bv.1);
-            let h = b.ins().fsub(a.1, bv.0);
-            ((rounding::down(b, l), rounding::up(b, h)), None)
+            let l = rounding::sub(b, a.0, bv.1);
+            let h = rounding::sub(b, a.1, bv.0);
+            ((rounding::lower(b, l, None), rounding::upper(b, h, None)), None)
         }
         BinOp::Mul => (mul(env, a, bv), None),
         BinOp::Min => ((b.ins().fmin(a.0, bv.0), b.ins().fmin(a.1, bv.1)), None),
@@ -157,34 +206,42 @@ fn mig_mag(env: &mut Env, (lo, hi): Iv) -> Iv {
     (mig, mag)
 }
 
-/// Interval product, outward rounded.
+/// Interval product, outward rounded: each of the four products is
+/// rounded down and up by its own error term, then min/max.
 pub(super) fn mul(env: &mut Env, a: Iv, c: Iv) -> Iv {
     let b = &mut env.b;
     let zero = b.ins().f64const(0.0);
-    let mut ps = [(a.0, c.0), (a.0, c.1), (a.1, c.0), (a.1, c.1)].map(|(x, y)| {
-        let p = b.ins().fmul(x, y);
-        // 0·∞ = NaN stands for 0 in interval arithmetic.
-        let nan = b.ins().fcmp(FloatCC::Unordered, p, p);
-        b.ins().select(nan, zero, p)
+    let bounds = [(a.0, c.0), (a.0, c.1), (a.1, c.0), (a.1, c.1)].map(|(x, y)| {
+        let (p, tiny) = rounding::mul(b, x, y);
+        // 0·∞ = NaN stands for 0 in interval arithmetic (its error term is
+        // NaN too, so it stays exact).
+        let nan = b.ins().fcmp(FloatCC::Unordered, p.r, p.r);
+        let r = b.ins().select(nan, zero, p.r);
+        let p = rounding::Rounded { r, e: p.e };
+        (
+            rounding::lower(b, p, Some(tiny)),
+            rounding::upper(b, p, Some(tiny)),
+        )
     });
-    let lo01 = b.ins().fmin(ps[0], ps[1]);
-    let lo23 = b.ins().fmin(ps[2], ps[3]);
+    let lo01 = b.ins().fmin(bounds[0].0, bounds[1].0);
+    let lo23 = b.ins().fmin(bounds[2].0, bounds[3].0);
     let lo = b.ins().fmin(lo01, lo23);
-    let hi01 = b.ins().fmax(ps[0], ps[1]);
-    ps[0] = b.ins().fmax(ps[2], ps[3]);
-    let hi = b.ins().fmax(hi01, ps[0]);
-    (rounding::down(b, lo), rounding::up(b, hi))
+    let hi01 = b.ins().fmax(bounds[0].1, bounds[1].1);
+    let hi23 = b.ins().fmax(bounds[2].1, bounds[3].1);
+    let hi = b.ins().fmax(hi01, hi23);
+    (lo, hi)
 }
 
 /// Bounds of `x^n` for `x ≥ 0` (`x` an exact bound), `n ≥ 1`: the repeated
 /// squaring with every product widened in direction `up`.
 fn pow_bound(env: &mut Env, x: Value, mut n: u64, up: bool) -> Value {
     let b = &mut env.b;
-    let round = |b: &mut cranelift_frontend::FunctionBuilder, v: Value| {
+    let mul_round = |b: &mut cranelift_frontend::FunctionBuilder, x: Value, y: Value| {
+        let (p, tiny) = rounding::mul(b, x, y);
         if up {
-            rounding::up(b, v)
+            rounding::upper(b, p, Some(tiny))
         } else {
-            let d = rounding::down(b, v);
+            let d = rounding::lower(b, p, Some(tiny));
             clamp0(b, d)
         }
     };
@@ -194,21 +251,22 @@ fn pow_bound(env: &mut Env, x: Value, mut n: u64, up: bool) -> Value {
         if n & 1 == 1 {
             acc = Some(match acc {
                 None => base,
-                Some(r) => {
-                    let p = b.ins().fmul(r, base);
-                    round(b, p)
-                }
+                Some(r) => mul_round(b, r, base),
             });
         }
         n >>= 1;
         if n == 0 {
             break;
         }
-        let sq = b.ins().fmul(base, base);
-        base = round(b, sq);
+        base = mul_round(b, base, base);
     }
     acc.unwrap_or(x)
 }
+
+/// Largest exponent computed inline. Each squaring doubles the relative
+/// width of a widened bound, so long chains call the helper, whose
+/// error-free transformations keep exact products exact (`1^(10^10) = 1`).
+pub(super) const INLINE_POWI_MAX: i64 = 8;
 
 /// `[lo, hi]^n`, `n ≥ 1`.
 fn powi(env: &mut Env, (lo, hi): Iv, n: u64) -> Iv {

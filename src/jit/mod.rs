@@ -139,6 +139,9 @@ pub struct JitOptions {
     /// Keep the CLIF text and disassembly of every kernel (`--emit clif|asm`);
     /// costs compile time.
     pub keep_text: bool,
+    /// Run Cranelift's IR verifier on every kernel (slower compiles; the
+    /// tests turn it on).
+    pub verify: bool,
 }
 
 /// What was compiled for one entry point.
@@ -387,7 +390,10 @@ impl Kernels {
         for (i, op) in prog.insts.iter().enumerate() {
             let rec = &mut pool[i * POOL_STRIDE..(i + 1) * POOL_STRIDE];
             match op {
-                Op::Const(c) => rec.copy_from_slice(&[c.value, c.lo, c.hi]),
+                Op::Const(c) => {
+                    let (iv, _) = Interval::new(c.lo, c.hi).normalize();
+                    rec.copy_from_slice(&[c.value, iv.lo, iv.hi]);
+                }
                 Op::Powi(..) => rec.copy_from_slice(&[1.0; 3]),
                 _ => {}
             }
@@ -403,11 +409,7 @@ impl Kernels {
         set(
             &mut flags,
             "enable_verifier",
-            if cfg!(debug_assertions) {
-                "true"
-            } else {
-                "false"
-            },
+            if opts.verify { "true" } else { "false" },
         )?;
         let isa = cranelift_native::builder()
             .map_err(|e| JitError::Target(e.to_string()))?
@@ -770,7 +772,10 @@ fn emit_entry(env: &mut Env, prog: &ir::Program, kind: Kind, batch: bool, entry:
                 env.b.ins().return_(&[r]);
             }
             Kind::Interval | Kind::Grad => {
-                let input = [0, 1, 2, 3].map(|k| env.read_iv(params[0], 16 * k));
+                let input = [0, 1, 2, 3].map(|k| {
+                    let iv = env.read_iv(params[0], 16 * k);
+                    interval::normalize(env, iv)
+                });
                 let out = params[1];
                 let d = store_box_result(env, prog, kind, input, out);
                 env.b.ins().return_(&[d]);
@@ -810,7 +815,10 @@ fn emit_entry(env: &mut Env, prog: &ir::Program, kind: Kind, batch: bool, entry:
         Kind::Interval | Kind::Grad => {
             let in_off = env.b.ins().imul_imm_s(i, 64);
             let ia = env.b.ins().iadd(params[0], in_off);
-            let input = [0, 1, 2, 3].map(|k| env.read_iv(ia, 16 * k));
+            let input = [0, 1, 2, 3].map(|k| {
+                let iv = env.read_iv(ia, 16 * k);
+                interval::normalize(env, iv)
+            });
             let stride = if kind == Kind::Interval { 16 } else { 64 };
             let out_off = env.b.ins().imul_imm_s(i, stride);
             let oa = env.b.ins().iadd(params[1], out_off);
@@ -831,7 +839,7 @@ fn store_box_result(
     env: &mut Env,
     prog: &ir::Program,
     kind: Kind,
-    input: [interval::Iv; 4],
+    input: [(interval::Iv, interval::Flag); 4],
     out: Value,
 ) -> Value {
     let f = Env::flags();
@@ -847,4 +855,16 @@ fn store_box_result(
         env.b.ins().store(f, hi, out, (16 * k + 8) as i32);
     }
     d
+}
+
+impl crate::eval::Backend for Kernels {
+    fn point(&self, p: [f64; 4]) -> f64 {
+        Kernels::point(self, p)
+    }
+    fn interval(&self, b: [Interval; 4]) -> DecInterval {
+        Kernels::interval(self, b)
+    }
+    fn grad(&self, b: [Interval; 4]) -> GradEval {
+        Kernels::grad(self, b)
+    }
 }

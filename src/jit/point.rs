@@ -1,7 +1,8 @@
 //! Lowering of a [`Program`] to the f64 point body.
 //!
 //! `neg abs sqrt square add sub mul div min max powi` are inline IEEE
-//! operations; `exp log sin cos tan asin acos atan atan2 pow` call the
+//! operations (with the IR's NaN rules: `a / ±0` is NaN, `min`/`max`
+//! propagate NaN); `exp log sin cos tan asin acos atan atan2 pow` call the
 //! reference evaluator's per-op functions through [`super::helpers`], so the
 //! JIT's point values are bit for bit the interpreter's.
 //!
@@ -10,6 +11,7 @@
 //! further set bit multiplies it by the current square, `a^-n = 1 / a^n`,
 //! `a^0 = 1`.
 
+use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{InstBuilder, Value};
 
 use super::Env;
@@ -39,7 +41,7 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [Value; 4]) -> Value {
                     BinOp::Add => ins.fadd(a, b),
                     BinOp::Sub => ins.fsub(a, b),
                     BinOp::Mul => ins.fmul(a, b),
-                    BinOp::Div => ins.fdiv(a, b),
+                    BinOp::Div => div_nan(env, a, b),
                     BinOp::Min => ins.fmin(a, b),
                     BinOp::Max => ins.fmax(a, b),
                     BinOp::Atan2 | BinOp::Pow => env.call_pt_binary(op, a, b),
@@ -53,7 +55,7 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [Value; 4]) -> Value {
                     let p = powi_chain(env, a, n.unsigned_abs());
                     if n < 0 {
                         let one = env.pool_load(i, 0);
-                        env.b.ins().fdiv(one, p)
+                        div_nan(env, one, p)
                     } else {
                         p
                     }
@@ -63,6 +65,16 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [Value; 4]) -> Value {
         vals.push(v);
     }
     vals[prog.output.index()]
+}
+
+/// `a / b`, NaN when `b` is ±0 (the IR's point semantics).
+fn div_nan(env: &mut Env, a: Value, b: Value) -> Value {
+    let ins = &mut env.b;
+    let q = ins.ins().fdiv(a, b);
+    let zero = ins.ins().f64const(0.0);
+    let nan = ins.ins().f64const(f64::NAN);
+    let is0 = ins.ins().fcmp(FloatCC::Equal, b, zero);
+    ins.ins().select(is0, nan, q)
 }
 
 /// `a^n`, `n ≥ 1`, right-to-left binary exponentiation in round to nearest.

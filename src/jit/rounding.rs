@@ -3,11 +3,27 @@
 //! # Strategy
 //!
 //! Every kernel runs in the default rounding mode (round to nearest, ties to
-//! even); nothing touches MXCSR. After each inexact-capable operation the
-//! lower bound is pushed down and the upper bound up by the branch-free
-//! successor/predecessor of Rump, Zimmermann, Boldo & Melquiond ("Computing
-//! predecessor and successor in rounding to nearest", BIT 49, 2009,
-//! Algorithm 2):
+//! even); nothing touches MXCSR (switching it is only legal inside one
+//! `asm!` block around the whole kernel call, and then every helper call —
+//! CORE-MATH — would run in the wrong mode).
+//!
+//! Each bound is computed in round to nearest, `r = RN(exact)`, together
+//! with the sign of the error `e = exact − r`, obtained by an error-free
+//! transformation:
+//!
+//! | op | error term (exact in f64) |
+//! |---|---|
+//! | `a + b` | TwoSum (Knuth): `s = a+b; b' = s−a; e = (a−(s−b')) + (b−b')` |
+//! | `a · b` | `fma(a, b, −p)` |
+//! | `√a` | `fma(−r, r, a)` (sign of `a − r²`) |
+//!
+//! A lower bound is `r` when `e ≥ 0` and the predecessor of `r` when
+//! `e < 0`; an upper bound symmetrically. So bounds are exactly as tight as
+//! hardware directed rounding (exact results stay exact: `[−1,2]² = [0,4]`,
+//! `1⁸ = 1`, `√1 = 1` — which matters: a widened `√1` would push `asin`'s
+//! argument out of its domain). The predecessor/successor is the branch-free
+//! formula of Rump, Zimmermann, Boldo & Melquiond ("Computing predecessor
+//! and successor in rounding to nearest", BIT 49, 2009, Algorithm 2):
 //!
 //! ```text
 //! e    = φ·|c| + η        φ = 2^-53·(1 + 2^-52),  η = 2^-1074 (smallest subnormal)
@@ -15,26 +31,20 @@
 //! down = c − e            ∈ {pred(c), pred(pred(c))}
 //! ```
 //!
-//! all three operations in round-to-nearest. Since a correctly rounded
-//! operation is within half an ulp of the exact result, `succ` of the rounded
-//! result is an upper bound of the exact one: the kernels are sound whatever
-//! the operation's rounding direction was, and at most two ulps wider than
-//! hardware directed rounding (one ulp in the common case).
+//! **Where the error term is not exact** the bound is widened
+//! unconditionally: a product or square-root argument below `2^-960` (the
+//! `fma` residual may underflow and lose its sign), and overflow (`r = ±∞`
+//! from finite operands gives a NaN error term). Overflow of a lower bound
+//! to `+∞` gives `MAX`, of an upper bound to `−∞` gives `−MAX`; a NaN error
+//! term otherwise means "treat as exact", which only happens when `r` itself
+//! is NaN or infinite.
 //!
-//! Why this and not the alternatives: switching MXCSR is only legal inside
-//! one `asm!` block around the whole kernel call, and then every helper call
-//! (CORE-MATH) would run in the wrong mode; error-free transformations
-//! (TwoSum, `fma(a, b, -p)`) would give hardware tightness but cost 6–10
-//! dependent operations per bound plus a select, against 4 here (abs, mul,
-//! add, add) that pipeline well.
-//!
-//! Infinities: `c = −∞` as an upper bound (an overflow of a negative result)
-//! would give `−∞ + ∞ = NaN`; it is replaced by `−MAX`, still an upper bound
-//! of every finite result. Symmetrically `+∞` as a lower bound becomes `MAX`.
-//! A NaN bound stays NaN.
+//! The FMA is a single instruction on x86-64 with FMA3 (Cranelift checks
+//! the host); elsewhere Cranelift calls the C library's `fma`, which is
+//! correctly rounded too.
 //!
 //! No float operation is ever emitted on two Cranelift constants (its
-//! mid-end folds them in round-to-nearest): `c` is always computed.
+//! mid-end folds them in round-to-nearest): every operand here is computed.
 
 use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{InstBuilder, Value};
@@ -51,6 +61,88 @@ fn margin(b: &mut FunctionBuilder, c: Value) -> Value {
     let eta = b.ins().f64const(ETA);
     let e = b.ins().fmul(a, phi);
     b.ins().fadd(e, eta)
+}
+
+/// Below this magnitude an `fma` residual may underflow.
+pub const TINY: f64 = 1.0e-289; // < 2^-960
+
+/// A round-to-nearest result and the error term `exact − r` (or NaN).
+#[derive(Clone, Copy)]
+pub struct Rounded {
+    pub r: Value,
+    pub e: Value,
+}
+
+/// `a + b` with its TwoSum error.
+pub fn add(b: &mut FunctionBuilder, x: Value, y: Value) -> Rounded {
+    let s = b.ins().fadd(x, y);
+    let yv = b.ins().fsub(s, x);
+    let xv = b.ins().fsub(s, yv);
+    let dx = b.ins().fsub(x, xv);
+    let dy = b.ins().fsub(y, yv);
+    let e = b.ins().fadd(dx, dy);
+    Rounded { r: s, e }
+}
+
+/// `a − b` with its error.
+pub fn sub(b: &mut FunctionBuilder, x: Value, y: Value) -> Rounded {
+    let ny = b.ins().fneg(y);
+    add(b, x, ny)
+}
+
+/// `a · b` with its FMA error, and an i8 "the product is tiny" (the error
+/// term may have underflowed: the caller must widen regardless).
+pub fn mul(b: &mut FunctionBuilder, x: Value, y: Value) -> (Rounded, Value) {
+    let p = b.ins().fmul(x, y);
+    let np = b.ins().fneg(p);
+    let e = b.ins().fma(x, y, np);
+    let tiny = is_tiny(b, p);
+    (Rounded { r: p, e }, tiny)
+}
+
+/// `√a` with the sign of `a − r²`.
+pub fn sqrt(b: &mut FunctionBuilder, a: Value) -> (Rounded, Value) {
+    let r = b.ins().sqrt(a);
+    let nr = b.ins().fneg(r);
+    let e = b.ins().fma(nr, r, a);
+    let tiny = is_tiny(b, a);
+    (Rounded { r, e }, tiny)
+}
+
+/// `|v| < TINY` (false for NaN).
+fn is_tiny(b: &mut FunctionBuilder, v: Value) -> Value {
+    let a = b.ins().fabs(v);
+    let t = b.ins().f64const(TINY);
+    b.ins().fcmp(FloatCC::LessThan, a, t)
+}
+
+/// The largest f64 ≤ the exact value, given its rounding `x` (`force`: an
+/// i8 that, when 1, widens even if the error term says exact).
+pub fn lower(b: &mut FunctionBuilder, x: Rounded, force: Option<Value>) -> Value {
+    let zero = b.ins().f64const(0.0);
+    let pinf = b.ins().f64const(f64::INFINITY);
+    let neg = b.ins().fcmp(FloatCC::LessThan, x.e, zero);
+    let ovf = b.ins().fcmp(FloatCC::Equal, x.r, pinf);
+    let mut c = b.ins().bor(neg, ovf);
+    if let Some(f) = force {
+        c = b.ins().bor(c, f);
+    }
+    let d = down(b, x.r);
+    b.ins().select(c, d, x.r)
+}
+
+/// The smallest f64 ≥ the exact value; see [`lower`].
+pub fn upper(b: &mut FunctionBuilder, x: Rounded, force: Option<Value>) -> Value {
+    let zero = b.ins().f64const(0.0);
+    let ninf = b.ins().f64const(f64::NEG_INFINITY);
+    let pos = b.ins().fcmp(FloatCC::GreaterThan, x.e, zero);
+    let ovf = b.ins().fcmp(FloatCC::Equal, x.r, ninf);
+    let mut c = b.ins().bor(pos, ovf);
+    if let Some(f) = force {
+        c = b.ins().bor(c, f);
+    }
+    let u = up(b, x.r);
+    b.ins().select(c, u, x.r)
 }
 
 /// An f64 ≥ the exact result that `c` is the round-to-nearest of.
