@@ -29,7 +29,10 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
     let zero = env.b.ins().f64const(0.0);
     let one = env.b.ins().f64const(1.0);
     let z = (zero, zero);
-    let mut vals: Vec<(Dual, Flag)> = Vec::with_capacity(prog.len());
+    // Per value: the tuple, the value's flag F and the derivatives' flag D
+    // (tracked apart as in the reference: `a^0` has derivative 0 whatever
+    // `a`'s derivatives were).
+    let mut vals: Vec<(Dual, Flag, Flag)> = Vec::with_capacity(prog.len());
     for (i, op) in prog.insts.iter().enumerate() {
         let (v, d): (Dual, Option<Value>) = match *op {
             Op::Var(var) => {
@@ -98,17 +101,36 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
                 n,
             ),
         };
-        let mut d = match *op {
-            Op::Var(var) => flags_in[var.index()],
-            _ => d,
+        // Own flags: the helpers return bit 0 = value defined, bit 1 =
+        // derivatives defined; inline ops only have a value flag.
+        let (mut f, mut dd) = match (*op, d) {
+            (Op::Var(var), _) => (flags_in[var.index()], None),
+            (Op::Unary(..) | Op::Binary(..) | Op::Powi(..), Some(r))
+                if !matches!(
+                    op,
+                    Op::Unary(UnOp::Neg | UnOp::Square, _)
+                        | Op::Binary(BinOp::Add | BinOp::Sub | BinOp::Mul, _, _)
+                ) =>
+            {
+                let b = &mut env.b;
+                let fv = b.ins().band_imm_u(r, 1);
+                let dv = b.ins().ushr_imm_u(r, 1);
+                (Some(fv), Some(dv))
+            }
+            (_, d) => (d, None),
         };
         for a in op.args() {
-            d = interval::and(env, d, vals[a.index()].1);
+            let (_, fa, da) = vals[a.index()];
+            f = interval::and(env, f, fa);
+            if !matches!(op, Op::Powi(_, 0)) {
+                dd = interval::and(env, dd, da);
+            }
         }
-        vals.push((v, d));
+        vals.push((v, f, dd));
     }
-    let (g, d) = vals[prog.output.index()];
-    (g, interval::flag_value(env, d))
+    let (g, f, dd) = vals[prog.output.index()];
+    let ok = interval::and(env, f, dd);
+    (g, interval::flag_value(env, ok))
 }
 
 /// Codes at or above this go to the binary gradient helper (minus it).

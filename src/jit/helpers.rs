@@ -143,13 +143,16 @@ unsafe fn read_dual(p: *const f64) -> Dual<DecInterval> {
 unsafe fn write_dual(p: *mut f64, g: &Dual<DecInterval>) -> u8 {
     // SAFETY: guaranteed by the caller.
     let w = unsafe { std::slice::from_raw_parts_mut(p, 8) };
-    let mut ok = true;
+    let mut d_ok = true;
     for (i, iv) in std::iter::once(g.v).chain(g.d).enumerate() {
         w[2 * i] = iv.iv.lo;
         w[2 * i + 1] = iv.iv.hi;
-        ok &= iv.defined;
+        if i > 0 {
+            d_ok &= iv.defined;
+        }
     }
-    ok as u8
+    // Bit 0: the value is defined; bit 1: the derivatives are.
+    g.v.defined as u8 | (d_ok as u8) << 1
 }
 
 /// Runs the reference evaluator's derivative rules ([`grad::step`]) on one
