@@ -158,3 +158,79 @@ fn emit_ast_prints_something_for_every_statement() {
         assert!(text.contains(word), "{word} missing in\n{text}");
     }
 }
+
+#[test]
+fn mesh_stats_json_and_output_file() {
+    let f = temp_file(
+        "msphere.iso",
+        b"domain [-1.3, 1.3]^3;\nsurface x^2 + y^2 + z^2 - 1;\n",
+    );
+    let out = f.with_extension("glb");
+    let _ = std::fs::remove_file(&out);
+    let o = isoc(&[
+        "mesh",
+        f.to_str().unwrap(),
+        "--level",
+        "5",
+        "-o",
+        out.to_str().unwrap(),
+        "--stats",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert_eq!(text.lines().count(), 1, "exactly one JSON object: {text}");
+    let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for key in [
+        "triangles",
+        "vertices",
+        "aspect_good",
+        "components",
+        "euler",
+        "genus",
+        "watertight",
+        "ambiguous_cells",
+        "guaranteed",
+        "max_level_reached",
+        "timings_ms",
+    ] {
+        assert!(j.get(key).is_some(), "missing {key}: {text}");
+    }
+    for key in ["compile", "octree", "dual", "polygonize", "smooth", "total"] {
+        assert!(j["timings_ms"][key].is_number(), "timings_ms.{key}");
+    }
+    assert_eq!(j["components"], 1);
+    assert_eq!(j["euler"], 2);
+    assert_eq!(j["genus"], serde_json::json!([0]));
+    assert_eq!(j["watertight"], true);
+    assert_eq!(j["guaranteed"], true);
+    assert_eq!(&std::fs::read(&out).unwrap()[..4], b"glTF");
+}
+
+#[test]
+fn mesh_default_output_is_the_stem_with_ply() {
+    let f = temp_file(
+        "stem.iso",
+        b"domain [-1.3, 1.3]^3;\nsurface x^2 + y^2 + z^2 - 1;\n",
+    );
+    let ply = f.with_extension("ply");
+    let _ = std::fs::remove_file(&ply);
+    let o = isoc(&["mesh", f.to_str().unwrap(), "--level", "4"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).is_empty(), "nothing on stdout unless asked");
+    assert!(std::fs::read(&ply).unwrap().starts_with(b"ply\n"));
+}
+
+#[test]
+fn mesh_errors_write_no_file() {
+    let f = temp_file("broken.iso", b"domain [-1, 1]^3;\nsurface x +;\n");
+    let out = f.with_extension("ply");
+    let _ = std::fs::remove_file(&out);
+    let o = isoc(&["mesh", f.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(!out.exists());
+    let g = temp_file("good.iso", b"domain [-1, 1]^3;\nsurface x;\n");
+    let o = isoc(&["mesh", g.to_str().unwrap(), "-o", "/tmp/x.unknown"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("format"));
+}

@@ -182,3 +182,49 @@ fn heart_surface_values() {
     let r = isoc::eval::interval::eval(&p, b);
     assert!(r.defined && r.iv.hi < 0.0, "{r:?}");
 }
+
+#[test]
+fn malformed_programs_do_not_panic() {
+    // v0 uses v5, which does not exist; the output is out of range too.
+    let p = Program {
+        insts: vec![Op::Unary(UnOp::Sin, Value(5))],
+        output: Value(0),
+    };
+    assert!(isoc::eval::point::eval(&p, [0.0; 4]).is_nan());
+    assert!(!isoc::eval::interval::eval(&p, boxed(Interval::point(0.0))).defined);
+    assert!(!isoc::eval::grad::eval(&p, boxed(Interval::point(0.0))).defined);
+    let q = Program {
+        output: Value(9),
+        ..p
+    };
+    assert!(isoc::eval::point::eval(&q, [0.0; 4]).is_nan());
+    assert!(!isoc::eval::interval::eval(&q, boxed(Interval::point(0.0))).defined);
+    assert!(isoc::eval::grad::eval_point(&q, [0.0; 4]).0.is_nan());
+}
+
+mod isotonicity {
+    //! Inclusion isotonicity of the reference interval evaluator: a sub-box
+    //! never gets a wider enclosure, nor a weaker flag. Not needed for
+    //! soundness, but the octree relies on refinement never losing
+    //! information (and it caught one-ulp steps crossing 0 or 1).
+    use crate::common::{Rng, arb_box, arb_program, cases, sample};
+    use isoc::interval::Interval;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(cases()))]
+
+        #[test]
+        fn sub_boxes_get_sub_intervals(program in arb_program(), b in arb_box(), seed in any::<u64>()) {
+            let mut rng = Rng(seed);
+            let sub: [Interval; 4] = std::array::from_fn(|i| {
+                let (x, y) = (sample(b[i], &mut rng), sample(b[i], &mut rng));
+                Interval::new(x.min(y), x.max(y))
+            });
+            let r = isoc::eval::interval::eval(&program, b);
+            let s = isoc::eval::interval::eval(&program, sub);
+            prop_assert!(s.iv.subset_of(&r.iv), "{s:?} on {sub:?} is not inside {r:?} on {b:?}\n{program:?}");
+            prop_assert!(!r.defined || s.defined, "flag lost on a sub-box {sub:?} of {b:?}\n{program:?}");
+        }
+    }
+}

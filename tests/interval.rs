@@ -108,8 +108,13 @@ proptest! {
             let hi_b = Dyadic::of(q.hi).mul(db);
             prop_assert!(lo_b.cmp(da).is_le() && da.cmp(hi_b).is_le(), "{a:e} / {b:e} ∉ {q:?}");
         }
+        // Tightness: the error-free transformations give at most one ulp.
+        for r in [s, d, p, sq] {
+            prop_assert!(r.hi <= r.lo.next_up(), "{a:e}, {b:e}: {r:?} wider than one ulp");
+        }
         if a > 0.0 {
             let (r, _) = interval::unary(UnOp::Sqrt, pa);
+            prop_assert!(r.hi <= r.lo.next_up(), "√{a:e}: {r:?} wider than one ulp");
             let (l, h) = (Dyadic::of(r.lo), Dyadic::of(r.hi));
             prop_assert!(l.mul(l).cmp(da).is_le() && da.cmp(h.mul(h)).is_le(), "√{a:e} ∉ {r:?}");
         }
@@ -128,6 +133,39 @@ proptest! {
         }
         let (r, _) = interval::unary(op, Interval::point(x));
         prop_assert!(r.lo < v && v < r.hi, "{op:?}({x:e}) = {v:e}, bounds {r:?}");
+        // … and not wider than that (two ulps around the rounded value).
+        prop_assert!(r.lo.next_up() == v && r.hi.next_down() == v, "{op:?}({x:e}): {r:?} too wide");
+    }
+}
+
+proptest! {
+    #![proptest_config(cfg())]
+
+    /// Intervals around a critical point `kπ/2` of sin/cos/tan (extremum or
+    /// pole), for `k` up to ±10⁷: the values at the floats nearest to the
+    /// critical point must be enclosed, so a missed extremum is caught.
+    #[test]
+    fn trig_near_critical_points(k in -10_000_000i64..10_000_000, small in any::<bool>(),
+                                 w1 in 0.0f64..1e-3, w2 in 0.0f64..1e-3,
+                                 op in prop::sample::select(vec![UnOp::Sin, UnOp::Cos, UnOp::Tan])) {
+        let k = if small { k % 16 } else { k };
+        let x0 = k as f64 * FRAC_PI_2;
+        let a = iv(x0 - w1, x0 + w2);
+        let (r, defined) = interval::unary(op, a);
+        let mut x = x0;
+        for _ in 0..4 {
+            x = x.next_down();
+        }
+        for _ in 0..9 {
+            if a.contains(x) {
+                let v = point::unary(op, x);
+                prop_assert!(encloses(r, v), "{op:?}({a:?}) = {r:?} misses {op:?}({x:e}) = {v:e}");
+                if op == UnOp::Tan && k % 2 != 0 && w1 > 1e-6 && w2 > 1e-6 {
+                    prop_assert!(!defined, "tan over a pole claims defined: {a:?}");
+                }
+            }
+            x = x.next_up();
+        }
     }
 }
 
@@ -351,6 +389,16 @@ fn pow_is_defined_for_positive_bases_only() {
         (Interval::EMPTY, false)
     );
     assert!(point::binary(BinOp::Pow, -8.0, 1.0 / 3.0).is_nan());
+    // Reaching the domain edge from a signed zero: a^-3 → +∞ as a → 0⁺.
+    let (r, d) = interval::binary(BinOp::Pow, iv(-0.0, 2.0), iv(-3.0, -3.0));
+    assert!(!d && r.hi == f64::INFINITY && r.lo <= 0.125, "{r:?}");
+    let (r, _) = interval::binary(BinOp::Pow, iv(0.0, 2.0), iv(-1.0, 2.0));
+    assert_eq!(r, iv(0.0, f64::INFINITY));
+    // Exact corners stay tight.
+    assert_eq!(
+        interval::binary(BinOp::Pow, iv(1.0, 1.0), iv(-5.0, 7.0)),
+        (iv(1.0, 1.0), true)
+    );
     assert!(point::binary(BinOp::Pow, 0.0, 2.0).is_nan());
 }
 

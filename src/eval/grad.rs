@@ -208,6 +208,13 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
     let sub = |a, b| N::bin(B::Sub, a, b);
     let neg = |a| N::un(U::Neg, a);
     let sq = |a| N::un(U::Square, a);
+    // A malformed operand (not an earlier value) reads as unknown.
+    let get = |v: crate::ir::Value| {
+        vals.get(v.index()).copied().unwrap_or(Dual {
+            v: N::unknown(),
+            d: [N::unknown(); 3],
+        })
+    };
     match *op {
         Op::Var(v) => {
             let i = v.index();
@@ -221,7 +228,7 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
             d: [zero; 3],
         },
         Op::Unary(u, a) => {
-            let Dual { v: a, d: da } = vals[a.index()];
+            let Dual { v: a, d: da } = get(a);
             let v = N::un(u, a);
             let d = match u {
                 U::Neg => map3(|k| neg(da[k])),
@@ -268,8 +275,8 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
             Dual { v, d }
         }
         Op::Binary(bop, x, y) => {
-            let Dual { v: a, d: da } = vals[x.index()];
-            let Dual { v: b, d: db } = vals[y.index()];
+            let Dual { v: a, d: da } = get(x);
+            let Dual { v: b, d: db } = get(y);
             let v = N::bin(bop, a, b);
             let d = match bop {
                 B::Add => map3(|k| add(da[k], db[k])),
@@ -292,7 +299,7 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
             Dual { v, d }
         }
         Op::Powi(a, n) => {
-            let Dual { v: a, d: da } = vals[a.index()];
+            let Dual { v: a, d: da } = get(a);
             let v = N::powi(a, n);
             let d = if n == 0 {
                 [zero; 3]

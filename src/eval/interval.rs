@@ -7,10 +7,17 @@
 //! [`Interval::normalize`] (a NaN bound gives an entire, undefined input).
 
 use crate::interval::{self, DecInterval, Interval};
-use crate::ir::{Op, Program};
+use crate::ir::{Op, Program, Value};
 
 /// The enclosure of one instruction given the enclosures before it.
+/// An operand that does not refer to an earlier value (a malformed
+/// program) reads as entire and undefined rather than panicking.
 pub fn step(op: &Op, vals: &[DecInterval], input: [Interval; 4]) -> DecInterval {
+    let get = |v: Value| {
+        vals.get(v.index())
+            .copied()
+            .unwrap_or(DecInterval::new(Interval::ENTIRE, false))
+    };
     match *op {
         Op::Var(v) => {
             let (iv, ok) = input[v.index()].normalize();
@@ -21,17 +28,17 @@ pub fn step(op: &Op, vals: &[DecInterval], input: [Interval; 4]) -> DecInterval 
             DecInterval::new(iv, ok && c.defined)
         }
         Op::Unary(u, a) => {
-            let a = vals[a.index()];
+            let a = get(a);
             let (iv, ok) = interval::unary(u, a.iv);
             DecInterval::new(iv, ok && a.defined)
         }
         Op::Binary(b, x, y) => {
-            let (x, y) = (vals[x.index()], vals[y.index()]);
+            let (x, y) = (get(x), get(y));
             let (iv, ok) = interval::binary(b, x.iv, y.iv);
             DecInterval::new(iv, ok && x.defined && y.defined)
         }
         Op::Powi(a, n) => {
-            let a = vals[a.index()];
+            let a = get(a);
             let (iv, ok) = interval::powi(a.iv, n);
             DecInterval::new(iv, ok && a.defined)
         }

@@ -20,7 +20,7 @@
 //! an interval, the point result is NaN or lies in the interval result (the
 //! property the shared test suite checks for whole programs).
 
-use crate::ir::{BinOp, Op, Program, UnOp};
+use crate::ir::{BinOp, Op, Program, UnOp, Value};
 
 /// `op(a)` in f64 with the IR's point semantics (NaN outside the domain).
 pub fn unary(op: UnOp, a: f64) -> f64 {
@@ -138,13 +138,16 @@ pub fn powi(a: f64, n: i64) -> f64 {
 }
 
 /// The value of one instruction given the values before it.
+/// An operand that does not refer to an earlier value (a malformed
+/// program) reads as NaN rather than panicking.
 pub fn step(op: &Op, vals: &[f64], input: [f64; 4]) -> f64 {
+    let get = |v: Value| vals.get(v.index()).copied().unwrap_or(f64::NAN);
     match *op {
         Op::Var(v) => input[v.index()],
         Op::Const(c) => c.value,
-        Op::Unary(u, a) => unary(u, vals[a.index()]),
-        Op::Binary(b, x, y) => binary(b, vals[x.index()], vals[y.index()]),
-        Op::Powi(a, n) => powi(vals[a.index()], n),
+        Op::Unary(u, a) => unary(u, get(a)),
+        Op::Binary(b, x, y) => binary(b, get(x), get(y)),
+        Op::Powi(a, n) => powi(get(a), n),
     }
 }
 

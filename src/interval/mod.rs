@@ -42,10 +42,24 @@
 //! libm gives no such guarantee) — then clamped to the function's true range
 //! (`sin` into `[-1, 1]`, `exp ≥ 0`, `atan` into `[-π/2, π/2]`, …). The only
 //! exact transcendental values used are the trivial ones (`exp 0 = 1`,
-//! `log 1 = 0`, `sin 0 = 0`, …). `sin`/`cos`/`tan` decide which critical
+//! `log 1 = 0`, `sin 0 = 0`, …), and sign facts keep a step from crossing
+//! 0 or 1 where the side is known (`exp x ≥ 1` for `x ≥ 0`, `atan x ≥ 0` for
+//! `x ≥ 0`, an underflowing product of positives stays `≥ 0`, …), which
+//! keeps the evaluator inclusion-isotone (a sub-box never gets a wider
+//! interval; tested). `sin`/`cos`/`tan` decide which critical
 //! points `kπ/2` lie in the argument by an interval enclosure of `x·2/π`;
 //! when floating point cannot decide, the extremum (or pole) is included.
-//! See [`trig`].
+//! See [`trig`]. `pow` takes the hull of its four corners (it is monotone
+//! in each argument separately), see [`elementary::pow`].
+//!
+//! # Files
+//!
+//! [`round`]: outward rounding of single float operations; [`arith`]:
+//! `+ − × /`, min, max, abs, sqrt, integer powers; [`elementary`]: exp, log,
+//! asin, acos, atan, atan2, pow; [`trig`]: sin, cos, tan with range
+//! reduction. [`unary`], [`binary`] and [`powi`] below dispatch on the IR
+//! op and are what the evaluators, the constant folder and the JIT's
+//! transcendental helpers call.
 //!
 //! # Data layout
 //!

@@ -54,6 +54,16 @@ pub fn step(r: f64, d: Dir) -> f64 {
     }
 }
 
+/// [`step`] for a product or quotient of two non-zero operands, whose exact
+/// value has the sign `negative` and is not zero: the bound never crosses
+/// zero (so `x·y` with `x, y > 0` keeps a non-negative lower bound even
+/// when it underflows).
+#[inline]
+fn step_signed(r: f64, d: Dir, negative: bool) -> f64 {
+    let s = step(r, d);
+    if negative { s.min(0.0) } else { s.max(0.0) }
+}
+
 /// Given `r = RN(exact)` and the sign of `exact − r` (`err`; NaN when
 /// unknown), the bound in direction `d`.
 #[inline]
@@ -109,7 +119,7 @@ pub fn mul(a: f64, b: f64, d: Dir) -> f64 {
         };
     }
     if p.abs() < SAFE {
-        return step(p, d);
+        return step_signed(p, d, (a < 0.0) != (b < 0.0));
     }
     settle(p, a.mul_add(b, -p), d)
 }
@@ -125,7 +135,7 @@ pub fn div(a: f64, b: f64, d: Dir) -> f64 {
         return q;
     }
     if q.is_infinite() || q.abs() < SAFE || a.abs() < SAFE {
-        return step(q, d);
+        return step_signed(q, d, (a < 0.0) != (b < 0.0));
     }
     // a/b − q = r/b with r = a − q·b exact.
     let r = (-q).mul_add(b, a);
@@ -200,7 +210,12 @@ mod tests {
         assert_eq!(mul(1e300, 1e300, Dir::Up), f64::INFINITY);
         assert_eq!(mul(0.0, f64::INFINITY, Dir::Up), 0.0);
         assert_eq!(add(f64::MAX, f64::MAX, Dir::Down), f64::MAX);
-        assert!(mul(1e-200, 1e-200, Dir::Down) < 0.0);
+        // Underflow: bracketed, without crossing zero.
+        assert_eq!(mul(1e-200, 1e-200, Dir::Down), 0.0);
         assert!(mul(1e-200, 1e-200, Dir::Up) > 0.0);
+        assert!(mul(-1e-200, 1e-200, Dir::Down) < 0.0);
+        assert_eq!(mul(-1e-200, 1e-200, Dir::Up), 0.0);
+        assert_eq!(div(-5e-324, 3.0, Dir::Up), 0.0);
+        assert!(div(-5e-324, 3.0, Dir::Down) < 0.0);
     }
 }

@@ -83,8 +83,7 @@ pub fn sin(a: Interval) -> Interval {
     sin_cos(a, core_math::sin, 1.0, 3.0)
 }
 
-/// `cos(a)`, in `[-1, 1]` (`cos 0 = 1` is exact: [`bounds`] only steps
-/// when the value may be inexact, and `1` is clamped anyway).
+/// `cos(a)`, in `[-1, 1]` (`cos 0 = 1` is exact, so not stepped).
 pub fn cos(a: Interval) -> Interval {
     sin_cos(a, core_math::cos, 0.0, 2.0)
 }

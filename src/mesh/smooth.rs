@@ -102,7 +102,7 @@ pub fn smooth(mesh: &mut Mesh, field: &dyn Field, passes: usize) -> usize {
                 let n = mesh.normals[v];
                 let d = sum / count - p;
                 let tangential = d - n * d.dot(n);
-                project(field, p + tangential * 0.5, 0.5 * reach)
+                project(field, p + tangential, 0.5 * reach)
             })
             .collect();
         for (v, c) in candidates.into_iter().enumerate() {

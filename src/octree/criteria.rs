@@ -81,9 +81,10 @@ pub fn judge(g: &GradEval, test: TopologyTest, kmax: f64) -> Verdict {
     }
 }
 
-/// `Diam(∇F(B)/‖∇F(B)‖)`: the diagonal of the box that encloses the unit
-/// normals over the cell (Paiva et al. §4.1, geometry criterion). Infinite
-/// when the gradient's norm interval reaches 0.
+/// `Diam(∇F(B)/‖∇F(B)‖)` with the paper's `Diam(Ix, Iy, Iz) = max |Iᵢ|`,
+/// the largest width of the box that encloses the unit normals over the
+/// cell (Paiva et al. §4.1, geometry criterion). Infinite when the
+/// gradient's norm interval reaches 0.
 pub fn normal_spread(grad: [Interval; 3]) -> f64 {
     let mut norm2 = Interval { lo: 0.0, hi: 0.0 };
     for c in grad {
@@ -94,14 +95,14 @@ pub fn normal_spread(grad: [Interval; 3]) -> f64 {
     if !(norm.lo > 0.0) {
         return f64::INFINITY;
     }
-    let mut d2 = 0.0;
+    let mut widest = 0.0f64;
     for c in grad {
         let (n, _) = interval::binary(BinOp::Div, c, norm);
         let w = n.hi - n.lo;
         if !w.is_finite() {
             return f64::INFINITY;
         }
-        d2 += w * w;
+        widest = widest.max(w);
     }
-    d2.sqrt()
+    widest
 }

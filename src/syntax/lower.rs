@@ -28,7 +28,7 @@ use std::collections::HashMap;
 
 /// Maximum number of AST nodes visited while lowering one program (function
 /// inlining can multiply the size of the source).
-pub const WORK_LIMIT: usize = 4_000_000;
+pub const WORK_LIMIT: usize = 500_000;
 
 /// A lowering target.
 pub trait Sink {

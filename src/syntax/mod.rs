@@ -83,11 +83,11 @@ pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowe
             source,
             vec![
                 Diagnostic::new(
-                    "the surface is too large after inlining its function calls",
+                    "the surface is too large (function calls are inlined at every use)",
                     span,
                 )
                 .with_note(format!(
-                    "note: lowering visited more than {} expression nodes",
+                    "note: lowering it visits more than {} expression nodes",
                     lower::WORK_LIMIT
                 )),
             ],

@@ -156,6 +156,8 @@ struct Resolver<'a> {
     /// For fn number k (in source order): the names its body calls.
     callees: Vec<Vec<String>>,
     fn_index: HashMap<String, usize>,
+    /// Members (sorted) of the call cycles already reported.
+    cycles: Vec<Vec<usize>>,
 }
 
 /// Resolves and checks `ast`. `complete` is false when the file had syntax
@@ -180,6 +182,7 @@ pub fn resolve(
         all_defs: HashMap::new(),
         callees: Vec::new(),
         fn_index: HashMap::new(),
+        cycles: Vec::new(),
     };
     r.prepass();
     r.run(opts, complete);
@@ -303,16 +306,16 @@ impl Resolver<'_> {
         }
         if complete {
             let end = self.source.len();
-            if first_surface.is_none() {
-                self.diags.push(
-                    Diagnostic::new("missing `surface` statement", end..end)
-                        .with_note("help: add one, e.g. `surface x^2 + y^2 + z^2 = 1;`"),
-                );
-            }
             if first_domain.is_none() && opts.domain.is_none() {
                 self.diags.push(
                     Diagnostic::new("missing `domain` statement", 0..0)
                         .with_note("help: add one, e.g. `domain [-2, 2]^3;`, or give `--domain`"),
+                );
+            }
+            if first_surface.is_none() {
+                self.diags.push(
+                    Diagnostic::new("missing `surface` statement", end..end)
+                        .with_note("help: add one, e.g. `surface x^2 + y^2 + z^2 = 1;`"),
                 );
             }
         }
@@ -648,6 +651,12 @@ impl Resolver<'_> {
             if let Some(&target) = self.fn_index.get(name)
                 && let Some(path) = self.path(target, index)
             {
+                let mut members = path.clone();
+                members.sort_unstable();
+                if self.cycles.contains(&members) {
+                    return Res::None;
+                }
+                self.cycles.push(members);
                 let mut chain: Vec<String> =
                     vec![format!("`{}`", self.fn_name(index).unwrap_or("?"))];
                 chain.extend(

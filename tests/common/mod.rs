@@ -96,6 +96,9 @@ enum Seed {
     WithConst(BinOp, usize, Const, bool),
     Powi(usize, i64),
     Const(Const),
+    /// A domain edge made likely: `log(a − 1)`, `1/a`, `sqrt(a − 1)`,
+    /// `asin(a − 1)`.
+    Edge(u8, usize),
 }
 
 fn arb_seed() -> impl Strategy<Value = Seed> {
@@ -108,6 +111,7 @@ fn arb_seed() -> impl Strategy<Value = Seed> {
             .prop_map(|(b, x, c, s)| Seed::WithConst(b, x, c, s)),
         2 => (any::<usize>(), arb_exponent()).prop_map(|(a, n)| Seed::Powi(a, n)),
         1 => arb_const().prop_map(Seed::Const),
+        2 => (0u8..4, any::<usize>()).prop_map(|(k, a)| Seed::Edge(k, a)),
     ]
 }
 
@@ -140,6 +144,19 @@ fn build(seeds: Vec<Seed>, vars: usize) -> Program {
             }
             Seed::Powi(a, k) => Op::Powi(pick(a, n), k),
             Seed::Const(c) => Op::Const(c),
+            Seed::Edge(k, a) => {
+                let a = pick(a, n);
+                insts.push(Op::Const(Const::exact(1.0)));
+                let one = Value(n as u32);
+                if k == 1 {
+                    Op::Binary(BinOp::Div, one, a)
+                } else {
+                    insts.push(Op::Binary(BinOp::Sub, a, one));
+                    let shifted = Value(n as u32 + 1);
+                    let u = [UnOp::Log, UnOp::Log, UnOp::Sqrt, UnOp::Asin][k as usize];
+                    Op::Unary(u, shifted)
+                }
+            }
         };
         insts.push(op);
     }
@@ -160,6 +177,7 @@ pub fn arb_program() -> impl Strategy<Value = Program> {
 fn special_points() -> Vec<f64> {
     vec![
         0.0,
+        -0.0,
         1.0,
         -1.0,
         0.5,
@@ -211,7 +229,7 @@ pub fn arb_interval() -> impl Strategy<Value = Interval> {
         2 => arb_coord().prop_map(Interval::point),
         4 => (arb_coord(), width.clone(), width.clone())
             .prop_map(|(c, a, b)| Interval::new(c - a, c + b)),
-        2 => (prop::sample::select(vec![0.0, 1.0, -1.0]), width.clone(), any::<bool>())
+        2 => (prop::sample::select(vec![0.0, -0.0, 1.0, -1.0]), width.clone(), any::<bool>())
             .prop_map(|(e, w, below)| if below { Interval::new(e - w, e) } else { Interval::new(e, e + w) }),
         1 => (arb_coord(), any::<bool>()).prop_map(|(c, up)| if up {
             Interval::new(c, f64::INFINITY)
@@ -223,13 +241,25 @@ pub fn arb_interval() -> impl Strategy<Value = Interval> {
     ]
 }
 
+/// [`arb_interval`], or now and then a malformed one (a NaN bound, which
+/// must read as entire and undefined).
+pub fn arb_input_interval() -> impl Strategy<Value = Interval> {
+    prop_oneof![
+        30 => arb_interval(),
+        1 => arb_coord().prop_map(|c| Interval::new(f64::NAN, c)),
+        1 => arb_coord().prop_map(|c| Interval::new(c, f64::NAN)),
+    ]
+}
+
 /// A box `[x, y, z, t]`.
+/// Now and then a side has a NaN bound; such a box only requires that the
+/// result be flagged undefined when the program reads that side.
 pub fn arb_box() -> impl Strategy<Value = [Interval; 4]> {
     [
-        arb_interval(),
-        arb_interval(),
-        arb_interval(),
-        arb_interval(),
+        arb_input_interval(),
+        arb_input_interval(),
+        arb_input_interval(),
+        arb_input_interval(),
     ]
 }
 
@@ -339,6 +369,30 @@ fn show(program: &Program, b: &[Interval; 4]) -> String {
     s
 }
 
+/// True when the output depends on the variable `v`.
+fn reads(program: &Program, v: Var) -> bool {
+    let mut live = vec![false; program.insts.len()];
+    if let Some(l) = live.get_mut(program.output.index()) {
+        *l = true;
+    }
+    let mut found = false;
+    for i in (0..program.insts.len()).rev() {
+        if !live[i] {
+            continue;
+        }
+        let op = &program.insts[i];
+        if *op == Op::Var(v) {
+            found = true;
+        }
+        for a in op.args() {
+            if let Some(l) = live.get_mut(a.index()) {
+                *l = true;
+            }
+        }
+    }
+    found
+}
+
 /// True when the point value at `p` is NaN because an op left its domain
 /// (finite inputs and no infinite intermediate value, so it is not an
 /// `∞ − ∞` or `0·∞` artefact of overflow).
@@ -362,6 +416,13 @@ pub fn check_interval<B: Backend>(
 ) -> Result<(), String> {
     let r = backend.interval(*b);
     let oracle = Reference(program.clone());
+    let nan_side = |v: Var| b[v.index()].lo.is_nan() || b[v.index()].hi.is_nan();
+    if Var::ALL.iter().any(|&v| nan_side(v) && reads(program, v)) && r.defined {
+        return Err(format!(
+            "a NaN box side gave a defined result {r:?}\n{}",
+            show(program, b)
+        ));
+    }
     for p in sample_points(b, seed, 24) {
         let want = oracle.point(p);
         let got = backend.point(p);

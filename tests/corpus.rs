@@ -1,0 +1,214 @@
+//! Every corpus file compiles through the front end, and its `# expect:`
+//! line (components and total genus of a closed surface) agrees with a
+//! brute-force sampling of the lowered program: the solid {f < 0} is
+//! voxelised on a grid, and
+//!
+//! - surface components = components(inside, 26-connected)
+//!   + components(outside, 6-connected) − 1 (each closed surface separates
+//!   space, and the regions form a tree);
+//! - total genus = components − χ(solid), since χ(∂S) = 2χ(S).
+//!
+//! The surface must also stay strictly inside the domain (no inside voxel on
+//! the grid's boundary layer). The grid has 64 cells per side unless the
+//! expect line says `grid=N`.
+
+mod front_util;
+
+use front_util::eval;
+use isoc::CompileOptions;
+use isoc::syntax::front_end;
+use std::collections::HashSet;
+
+fn corpus() -> Vec<(String, String)> {
+    let mut files: Vec<(String, String)> = std::fs::read_dir("corpus")
+        .expect("corpus/ exists")
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "iso"))
+        .map(|p| {
+            let src = std::fs::read_to_string(&p).unwrap();
+            (p.display().to_string(), src)
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+/// The `key=value` pairs (or bare words) of the `# expect:` line.
+fn expectation(src: &str) -> Vec<(String, String)> {
+    let line = src
+        .lines()
+        .find_map(|l| l.strip_prefix("# expect:"))
+        .expect("an `# expect:` line");
+    line.split_whitespace()
+        .map(|w| match w.split_once('=') {
+            Some((k, v)) => (k.to_string(), v.to_string()),
+            None => (w.to_string(), String::new()),
+        })
+        .collect()
+}
+
+#[test]
+fn corpus_is_complete() {
+    let names: Vec<String> = corpus().into_iter().map(|(n, _)| n).collect();
+    for want in [
+        "torus_fig1",
+        "heart",
+        "heart6",
+        "smile",
+        "twotorus",
+        "cyclide",
+        "chair_left",
+        "chair_mid",
+        "chair_right",
+        "teardrop",
+        "twoplanes",
+        "sphere",
+        "torus",
+        "genus2",
+        "twospheres",
+        "nested",
+        "pulse",
+    ] {
+        assert!(
+            names.iter().any(|n| n.ends_with(&format!("/{want}.iso"))),
+            "missing corpus/{want}.iso"
+        );
+    }
+}
+
+#[test]
+fn every_corpus_file_compiles() {
+    for (name, src) in corpus() {
+        let l = match front_end(&src, &name, &CompileOptions::default()) {
+            Ok(l) => l,
+            Err(e) => panic!("{}", e.render()),
+        };
+        l.program.validate().unwrap();
+        assert!(!expectation(&src).is_empty(), "{name}");
+    }
+}
+
+/// Grid topology of {f < 0} at time `t`: (components, genus, touches the
+/// domain boundary).
+fn topology(src: &str, t: f64, n: usize) -> (i64, i64, bool) {
+    let l = front_end(src, "f", &CompileOptions::default()).unwrap();
+    let (lo, hi) = (l.domain.lo, l.domain.hi);
+    let idx = |i: usize, j: usize, k: usize| (i * n + j) * n + k;
+    let mut inside = vec![false; n * n * n];
+    let mut touches = false;
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..n {
+                let c = |a: usize, d: usize| lo[d] + (a as f64 + 0.5) / n as f64 * (hi[d] - lo[d]);
+                let f = eval(&l.program, [c(i, 0), c(j, 1), c(k, 2), t]);
+                let ins = f < 0.0;
+                inside[idx(i, j, k)] = ins;
+                if ins && [i, j, k].iter().any(|&a| a == 0 || a == n - 1) {
+                    touches = true;
+                }
+            }
+        }
+    }
+    let comps = |want: bool, full: bool| -> i64 {
+        let mut seen = vec![false; n * n * n];
+        let mut count = 0;
+        for s in 0..n * n * n {
+            if seen[s] || inside[s] != want {
+                continue;
+            }
+            count += 1;
+            seen[s] = true;
+            let mut stack = vec![s];
+            while let Some(c) = stack.pop() {
+                let (i, j, k) = (c / (n * n), c / n % n, c % n);
+                for di in -1i64..=1 {
+                    for dj in -1i64..=1 {
+                        for dk in -1i64..=1 {
+                            let m = di.abs() + dj.abs() + dk.abs();
+                            if m == 0 || (!full && m > 1) {
+                                continue;
+                            }
+                            let (a, b, d) = (i as i64 + di, j as i64 + dj, k as i64 + dk);
+                            if [a, b, d].iter().any(|&v| v < 0 || v >= n as i64) {
+                                continue;
+                            }
+                            let q = idx(a as usize, b as usize, d as usize);
+                            if !seen[q] && inside[q] == want {
+                                seen[q] = true;
+                                stack.push(q);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        count
+    };
+    let ins = comps(true, true);
+    let outs = comps(false, false);
+    // Euler characteristic of the union of closed inside cubes: count the
+    // cells of each dimension (keyed by doubled coordinates).
+    let mut cells: [HashSet<(usize, usize, usize)>; 4] = Default::default();
+    for s in 0..n * n * n {
+        if !inside[s] {
+            continue;
+        }
+        let (i, j, k) = (s / (n * n), s / n % n, s % n);
+        for a in 0..3 {
+            for b in 0..3 {
+                for c in 0..3 {
+                    let dim = [a, b, c].iter().filter(|&&v| v == 1).count();
+                    cells[dim].insert((2 * i + a, 2 * j + b, 2 * k + c));
+                }
+            }
+        }
+    }
+    let chi = cells[0].len() as i64 - cells[1].len() as i64 + cells[2].len() as i64
+        - cells[3].len() as i64;
+    let surfaces = ins + outs - 1;
+    (surfaces, surfaces - chi, touches)
+}
+
+#[test]
+fn corpus_topology_matches_expectations() {
+    let mut failures = Vec::new();
+    for (name, src) in corpus() {
+        let e = expectation(&src);
+        let get = |k: &str| {
+            e.iter()
+                .find(|(a, _)| a == k)
+                .map(|(_, v)| v.parse::<i64>().unwrap())
+        };
+        let (Some(comp), Some(genus)) = (get("components"), get("genus")) else {
+            assert!(
+                e.iter().any(|(k, _)| k == "singular"),
+                "{name}: no topology"
+            );
+            continue;
+        };
+        let (c, g, touches) = topology(&src, 0.0, get("grid").unwrap_or(64) as usize);
+        if (c, g, touches) != (comp, genus, false) {
+            failures.push(format!(
+                "{name}: expected components={comp} genus={genus}, sampled {c} and {g}{}",
+                if touches {
+                    " (touches the domain boundary)"
+                } else {
+                    ""
+                }
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Resolution study for one file (`CORPUS_FILE=… cargo test -- --ignored`).
+#[test]
+#[ignore]
+fn topology_at_several_resolutions() {
+    let file = std::env::var("CORPUS_FILE").unwrap_or("corpus/chair_mid.iso".into());
+    let src = std::fs::read_to_string(&file).unwrap();
+    for n in [60, 100, 140] {
+        println!("{file} n={n}: {:?}", topology(&src, 0.0, n));
+    }
+}
