@@ -15,7 +15,12 @@ fn corpus() -> Vec<(String, String)> {
         .filter_map(|e| e.ok())
         .map(|e| e.path())
         .filter(|p| p.extension().is_some_and(|x| x == "iso"))
-        .map(|p| (p.display().to_string(), std::fs::read_to_string(&p).unwrap()))
+        .map(|p| {
+            (
+                p.display().to_string(),
+                std::fs::read_to_string(&p).unwrap(),
+            )
+        })
         .collect();
     files.sort();
     files
@@ -62,7 +67,9 @@ fn guaranteed_corpus_meshes_have_the_true_topology() {
                 }
                 guaranteed_somewhere += 1;
                 let (c, g) = want.unwrap_or_else(|| {
-                    panic!("{name} level {level} {test:?}: a singular surface was called guaranteed")
+                    panic!(
+                        "{name} level {level} {test:?}: a singular surface was called guaranteed"
+                    )
                 });
                 let t = &r.topology;
                 let genus: i64 = t.genus.iter().map(|g| g.unwrap_or(-1000)).sum();
@@ -73,7 +80,10 @@ fn guaranteed_corpus_meshes_have_the_true_topology() {
             }
         }
     }
-    assert!(guaranteed_somewhere > 0, "the check above must not be vacuous");
+    assert!(
+        guaranteed_somewhere > 0,
+        "the check above must not be vacuous"
+    );
 }
 
 #[test]

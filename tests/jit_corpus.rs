@@ -46,7 +46,10 @@ fn every_corpus_file_compiles() {
         let p = [c[0], c[1], c[2], 0.0];
         let r = Reference(prog.clone());
         let (jv, rv) = (k.point(p), r.point(p));
-        assert!(jv == rv || (jv.is_nan() && rv.is_nan()), "{name}: {jv} vs {rv}");
+        assert!(
+            jv == rv || (jv.is_nan() && rv.is_nan()),
+            "{name}: {jv} vs {rv}"
+        );
         let (ji, ri) = (k.interval(b), r.interval(b));
         assert!(ji.iv.lo <= rv && rv <= ji.iv.hi || rv.is_nan(), "{name}");
         assert_eq!(ji.defined, ri.defined, "{name}");

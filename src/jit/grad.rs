@@ -9,9 +9,12 @@
 //! to a stack slot and calls a chain-rule helper ([`super::helpers`]) built
 //! on [`crate::interval`]'s enclosures.
 //!
-//! The decoration is false when some op was not defined, continuous *or
-//! differentiable* on the whole box (`abs`, `min`, `max` at a kink, `sqrt`
-//! at 0, …).
+//! The decoration is false when some op on the output's dependency path was
+//! not defined, continuous *or differentiable* on the whole box (`abs`,
+//! `min`, `max` at a kink, `sqrt` at 0, …). As in
+//! [`crate::eval::grad`], each value carries a value flag and a derivative
+//! flag: `a^0` has derivative 0 whatever `a`'s derivatives were, so only
+//! `a`'s value flag reaches it.
 
 use cranelift_codegen::ir::{InstBuilder, Value};
 

@@ -7,6 +7,10 @@
 //! (interval), never a panic. Pointers are to arrays of f64 laid out as in
 //! the kernels' ABI (see [`super`]): an interval is `[lo, hi]`, a gradient
 //! record is `[F.lo, F.hi, Fx.lo, Fx.hi, Fy.lo, Fy.hi, Fz.lo, Fz.hi]`.
+//! Interval helpers return the op's decoration (1 defined and continuous on
+//! the operands, else 0); gradient helpers return two bits: bit 0 the
+//! value's decoration, bit 1 the derivatives'. Operand decorations are
+//! combined by the kernel, not here.
 //!
 //! The point helpers are the reference evaluator's own per-op functions
 //! ([`crate::eval::point`]) and the interval helpers the interval module's

@@ -174,12 +174,18 @@ pub(super) fn binary(env: &mut Env, op: BinOp, a: Iv, bv: Iv) -> (Iv, Option<Val
         BinOp::Add => {
             let l = rounding::add(b, a.0, bv.0);
             let h = rounding::add(b, a.1, bv.1);
-            ((rounding::lower(b, l, None), rounding::upper(b, h, None)), None)
+            (
+                (rounding::lower(b, l, None), rounding::upper(b, h, None)),
+                None,
+            )
         }
         BinOp::Sub => {
             let l = rounding::sub(b, a.0, bv.1);
             let h = rounding::sub(b, a.1, bv.0);
-            ((rounding::lower(b, l, None), rounding::upper(b, h, None)), None)
+            (
+                (rounding::lower(b, l, None), rounding::upper(b, h, None)),
+                None,
+            )
         }
         BinOp::Mul => (mul(env, a, bv), None),
         BinOp::Min => ((b.ins().fmin(a.0, bv.0), b.ins().fmin(a.1, bv.1)), None),
