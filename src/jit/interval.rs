@@ -279,7 +279,7 @@ fn powi(env: &mut Env, (lo, hi): Iv, n: u64) -> Iv {
     if n == 1 {
         return (lo, hi);
     }
-    if n % 2 == 0 {
+    if n.is_multiple_of(2) {
         let (mig, mag) = mig_mag(env, (lo, hi));
         let l = pow_bound(env, mig, n, false);
         let h = pow_bound(env, mag, n, true);
