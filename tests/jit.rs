@@ -320,9 +320,9 @@ proptest! {
             let (v, d) = point_grad(&p, q);
             prop_assert!(contains(g.value, v), "f{q:?} = {v:e} not in {:?}", g.value);
             if let Some(d) = d {
-                for i in 0..3 {
-                    prop_assert!(contains(g.grad[i], d[i]),
-                        "d{i} f{q:?} = {:e} not in {:?}\n{p:?}", d[i], g.grad[i]);
+                for (i, (di, gi)) in d.iter().zip(g.grad).enumerate() {
+                    prop_assert!(contains(gi, *di),
+                        "d{i} f{q:?} = {di:e} not in {gi:?}\n{p:?}");
                 }
             }
         }
