@@ -519,3 +519,47 @@ fn compile_info_is_reported() {
         assert!(k.code_bytes(kind) > 0);
     }
 }
+
+/// Where round-to-nearest lands on the wrong side of the exact result the
+/// kernels must step outward (sampled-point checks cannot see this: the
+/// point value is rounded the same way).
+#[test]
+fn outward_rounding_is_applied() {
+    let iv = |v: f64| Interval { lo: v, hi: v };
+    let prog = |op: BinOp, c: f64| Program {
+        insts: vec![
+            Op::Var(Var::X),
+            Op::Const(Const::exact(c)),
+            Op::Binary(op, Value(0), Value(1)),
+        ],
+        output: Value(2),
+    };
+    // 3 · 0.1 (the f64 0.1000000000000000055…) = 0.30000000000000001665…,
+    // which rounds up to 0.30000000000000004.
+    let k = Kernels::compile(&prog(BinOp::Mul, 3.0)).unwrap();
+    let r = k.interval([iv(0.1); 4]).iv;
+    assert_eq!(3.0 * 0.1, 0.30000000000000004);
+    assert!(
+        r.lo < 0.30000000000000004 && r.hi >= 0.30000000000000004,
+        "{r:?}"
+    );
+    let g = k.grad([iv(0.1); 4]).value;
+    assert!(g.lo < 0.30000000000000004, "{g:?}");
+    // 1 + 2^-60 rounds down to 1.
+    let k = Kernels::compile(&prog(BinOp::Add, 2f64.powi(-60))).unwrap();
+    let r = k.interval([iv(1.0); 4]).iv;
+    assert!(r.lo <= 1.0 && r.hi > 1.0, "{r:?}");
+    // Exact results stay exact: 1.5 · 2 = 3.
+    let k = Kernels::compile(&prog(BinOp::Mul, 2.0)).unwrap();
+    assert_eq!(k.interval([iv(1.5); 4]).iv, iv(3.0));
+    // sqrt(2) is inexact, sqrt(4) exact.
+    let p = Program {
+        insts: vec![Op::Var(Var::X), Op::Unary(UnOp::Sqrt, Value(0))],
+        output: Value(1),
+    };
+    let k = Kernels::compile(&p).unwrap();
+    let r = k.interval([iv(2.0); 4]).iv;
+    assert!(r.lo < 2f64.sqrt() || r.hi > 2f64.sqrt(), "{r:?}");
+    assert!(r.lo < r.hi && r.lo <= 2f64.sqrt() && r.hi >= 2f64.sqrt());
+    assert_eq!(k.interval([iv(4.0); 4]).iv, iv(2.0));
+}
