@@ -563,3 +563,32 @@ fn outward_rounding_is_applied() {
     assert!(r.lo < r.hi && r.lo <= 2f64.sqrt() && r.hi >= 2f64.sqrt());
     assert_eq!(k.interval([iv(4.0); 4]).iv, iv(2.0));
 }
+
+/// The kernels are pure functions of their arguments: `Kernels` can be
+/// shared between threads (the mesher evaluates in parallel).
+#[test]
+fn kernels_are_send_and_sync() {
+    fn check<T: Send + Sync>(_: &T) {}
+    let p = Program {
+        insts: vec![
+            Op::Var(Var::X),
+            Op::Unary(UnOp::Sin, Value(0)),
+            Op::Binary(BinOp::Mul, Value(1), Value(0)),
+        ],
+        output: Value(2),
+    };
+    let k = Kernels::compile(&p).unwrap();
+    check(&k);
+    let want: Vec<f64> = (0..64)
+        .map(|i| k.point([i as f64, 0.0, 0.0, 0.0]))
+        .collect();
+    std::thread::scope(|s| {
+        for _ in 0..2 {
+            s.spawn(|| {
+                for (i, w) in want.iter().enumerate() {
+                    assert_eq!(k.point([i as f64, 0.0, 0.0, 0.0]).to_bits(), w.to_bits());
+                }
+            });
+        }
+    });
+}
