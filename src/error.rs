@@ -44,6 +44,8 @@ pub enum Error {
     Usage(String),
     /// Reading or writing a file failed.
     Io { path: String, error: std::io::Error },
+    /// The JIT could not compile the kernels.
+    Jit(crate::jit::JitError),
 }
 
 impl std::fmt::Display for Error {
@@ -68,6 +70,7 @@ impl Error {
             } => crate::syntax::diag::render_all(file, source, diagnostics),
             Error::Usage(m) => format!("error: {m}\n"),
             Error::Io { path, error } => format!("error: {path}: {error}\n"),
+            Error::Jit(e) => format!("error: {e}\n"),
         }
     }
 }

@@ -1,12 +1,18 @@
 //! A compiled surface: the simplified program of its function, its domain,
-//! and the evaluators behind it. This is the library's front door:
+//! and the JIT kernels that evaluate it. This is the library's front door:
 //! [`Surface::compile`] turns source text into a `Surface`, whose methods
-//! evaluate the function at points and over boxes.
+//! evaluate the function at points and over boxes — single calls and
+//! batches — through the three Cranelift kernels ([`crate::jit`]). The
+//! reference interpreters ([`crate::eval`]) stay available on
+//! [`Surface::program`] as the oracle.
+
+use std::sync::Arc;
 
 use crate::error::Error;
-use crate::eval;
+use crate::eval::grad::GradEval;
 use crate::interval::{DecInterval, Interval};
 use crate::ir::Program;
+use crate::jit::Kernels;
 use crate::syntax;
 
 /// An axis-aligned box `[lo, hi]` in space.
@@ -70,7 +76,7 @@ pub struct CompileOptions {
 }
 
 /// A compiled surface.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct Surface {
     /// The file name diagnostics were reported against.
     pub file: String,
@@ -80,18 +86,50 @@ pub struct Surface {
     pub domain: Bounds,
     /// The values of every `param`, after `--set` overrides.
     pub params: Vec<(String, f64)>,
+    /// The JIT kernels of `program` (shared by clones).
+    kernels: Arc<Kernels>,
+}
+
+impl std::fmt::Debug for Surface {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Surface")
+            .field("file", &self.file)
+            .field("program", &self.program)
+            .field("domain", &self.domain)
+            .field("params", &self.params)
+            .finish_non_exhaustive()
+    }
 }
 
 impl Surface {
     /// Compiles source text. `file` names the source in diagnostics.
     pub fn compile(source: &str, file: &str, opts: &CompileOptions) -> Result<Surface, Error> {
         let lowered = syntax::front_end(source, file, opts)?;
+        Surface::from_program(file, lowered.program, lowered.domain, lowered.params)
+    }
+
+    /// A surface from an IR program built elsewhere (e.g. with
+    /// [`crate::ir::Builder`]).
+    pub fn from_program(
+        file: &str,
+        program: Program,
+        domain: Bounds,
+        params: Vec<(String, f64)>,
+    ) -> Result<Surface, Error> {
+        let kernels = Kernels::compile(&program).map_err(Error::Jit)?;
         Ok(Surface {
             file: file.to_string(),
-            program: lowered.program,
-            domain: lowered.domain,
-            params: lowered.params,
+            program,
+            domain,
+            params,
+            kernels: Arc::new(kernels),
         })
+    }
+
+    /// The JIT kernels (function pointers, batch entry points, code sizes,
+    /// compile times, CLIF and disassembly).
+    pub fn kernels(&self) -> &Kernels {
+        &self.kernels
     }
 
     /// Compiles a file's bytes (which need not be valid UTF-8: invalid text
@@ -105,23 +143,74 @@ impl Surface {
         Surface::compile(&source, file, opts)
     }
 
-    /// f at `[x, y, z, t]`.
+    /// f at `[x, y, z, t]` (point kernel).
     pub fn point(&self, p: [f64; 4]) -> f64 {
-        eval::point::eval(&self.program, p)
+        self.kernels.point(p)
     }
 
-    /// f and ∇f at `[x, y, z, t]`.
+    /// f and ∇f at `[x, y, z, t]`: the value from the point kernel, the
+    /// gradient the midpoint of the interval-gradient kernel's enclosure
+    /// over the degenerate box `[p, p]` (a few ulps wide at most).
     pub fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
-        eval::grad::eval_point(&self.program, p)
+        let g = self.kernels.grad(p.map(|c| Interval { lo: c, hi: c }));
+        let mid = |i: Interval| {
+            if i.lo == i.hi {
+                i.lo
+            } else {
+                0.5 * i.lo + 0.5 * i.hi
+            }
+        };
+        (self.point(p), g.grad.map(mid))
     }
 
-    /// Enclosure of f over a box `[x, y, z, t]`.
+    /// Enclosure of f over a box `[x, y, z, t]` (interval kernel).
     pub fn interval(&self, b: [Interval; 4]) -> DecInterval {
-        eval::interval::eval(&self.program, b)
+        self.kernels.interval(b)
     }
 
-    /// Enclosure of f and ∇f over a box `[x, y, z, t]`.
-    pub fn grad(&self, b: [Interval; 4]) -> eval::grad::GradEval {
-        eval::grad::eval(&self.program, b)
+    /// Enclosure of f and ∇f over a box `[x, y, z, t]` (interval-gradient
+    /// kernel).
+    pub fn grad(&self, b: [Interval; 4]) -> GradEval {
+        self.kernels.grad(b)
+    }
+
+    /// `out[i] = f(xs[i], ys[i], zs[i], t)` (batch point kernel).
+    pub fn point_batch(&self, xs: &[f64], ys: &[f64], zs: &[f64], t: f64, out: &mut [f64]) -> Result<(), Error> {
+        self.kernels.point_batch(xs, ys, zs, t, out).map_err(Error::Jit)
+    }
+
+    /// Interval-gradient enclosures over many boxes (batch kernel).
+    pub fn grad_batch(&self, boxes: &[[Interval; 4]]) -> Vec<GradEval> {
+        let input: Vec<f64> = boxes.iter().flat_map(|b| b.iter().flat_map(|i| [i.lo, i.hi])).collect();
+        let mut out = vec![0.0; boxes.len() * 8];
+        let mut defined = vec![false; boxes.len()];
+        self.kernels
+            .grad_batch(&input, &mut out, &mut defined)
+            .expect("buffers sized for the batch");
+        out.chunks_exact(8)
+            .zip(defined)
+            .map(|(o, d)| GradEval {
+                value: Interval { lo: o[0], hi: o[1] },
+                grad: [1, 2, 3].map(|k| Interval { lo: o[2 * k], hi: o[2 * k + 1] }),
+                defined: d,
+            })
+            .collect()
+    }
+
+    /// Interval enclosures over many boxes (batch kernel).
+    pub fn interval_batch(&self, boxes: &[[Interval; 4]]) -> Vec<DecInterval> {
+        let input: Vec<f64> = boxes.iter().flat_map(|b| b.iter().flat_map(|i| [i.lo, i.hi])).collect();
+        let mut out = vec![0.0; boxes.len() * 2];
+        let mut defined = vec![false; boxes.len()];
+        self.kernels
+            .interval_batch(&input, &mut out, &mut defined)
+            .expect("buffers sized for the batch");
+        out.chunks_exact(2)
+            .zip(defined)
+            .map(|(o, d)| DecInterval {
+                iv: Interval { lo: o[0], hi: o[1] },
+                defined: d,
+            })
+            .collect()
     }
 }

@@ -123,30 +123,50 @@ fn cell_input(a: DVec3, b: DVec3, t: f64) -> [Interval; 4] {
     ]
 }
 
-/// One interval-gradient evaluation over a cell, judged by the criteria;
-/// the value kernel is asked too when the gradient kernel's flag dropped
-/// (for a merely non-differentiable F), and the centre for the mean-value
-/// form.
-fn examine(surface: &Surface, cell: [Interval; 4], opts: &OctreeOptions) -> criteria::Verdict {
-    let g = surface.grad(cell);
-    let value_defined = g.defined || surface.interval(cell).defined;
-    let mean_value = (g.defined && value_defined).then(|| {
-        let c = [0, 1, 2].map(|k| 0.5 * (cell[k].lo + cell[k].hi));
-        let fc = surface.interval([
-            Interval { lo: c[0], hi: c[0] },
-            Interval { lo: c[1], hi: c[1] },
-            Interval { lo: c[2], hi: c[2] },
-            cell[3],
-        ]);
-        criteria::mean_value_form(fc.iv, g.grad, [cell[0], cell[1], cell[2]], c)
-    });
-    criteria::judge(&g, value_defined, mean_value, opts.test, opts.kmax)
+/// Interval-gradient evaluations over cells (one batch call), judged by
+/// the criteria; the value kernel is asked too where the gradient kernel's
+/// flag dropped (for a merely non-differentiable F), and at the centres for
+/// the mean-value form (a second batch call).
+fn examine(surface: &Surface, cells: &[[Interval; 4]], opts: &OctreeOptions) -> Vec<criteria::Verdict> {
+    let grads = surface.grad_batch(cells);
+    let centres: Vec<[Interval; 4]> = cells
+        .iter()
+        .map(|cell| {
+            let mut c = *cell;
+            for side in c.iter_mut().take(3) {
+                let m = 0.5 * (side.lo + side.hi);
+                *side = Interval { lo: m, hi: m };
+            }
+            c
+        })
+        .collect();
+    let at_centres = surface.interval_batch(&centres);
+    cells
+        .iter()
+        .zip(grads)
+        .zip(at_centres)
+        .map(|((cell, g), fc)| {
+            let value_defined = g.defined || surface.interval(*cell).defined;
+            let mean_value = (g.defined && value_defined).then(|| {
+                let c = [0, 1, 2].map(|k| centres_mid(cell, k));
+                criteria::mean_value_form(fc.iv, g.grad, [cell[0], cell[1], cell[2]], c)
+            });
+            criteria::judge(&g, value_defined, mean_value, opts.test, opts.kmax)
+        })
+        .collect()
 }
+
+fn centres_mid(cell: &[Interval; 4], k: usize) -> f64 {
+    0.5 * (cell[k].lo + cell[k].hi)
+}
+
+/// Cells per batch call.
+const BATCH: usize = 128;
 
 /// Whether the box `[a, b]` is proved free of surface, splitting it up to
 /// `depth` more times.
 fn proves_empty(surface: &Surface, a: DVec3, b: DVec3, opts: &OctreeOptions, depth: u8) -> bool {
-    if examine(surface, cell_input(a, b, opts.t), opts).empty {
+    if examine(surface, &[cell_input(a, b, opts.t)], opts)[0].empty {
         return true;
     }
     if depth == 0 {
@@ -219,11 +239,16 @@ impl Octree {
                 break;
             }
             let verdicts: Vec<criteria::Verdict> = frontier
-                .par_iter()
-                .map(|&i| {
-                    let (a, b) = tree.cell_box(&tree.nodes[i as usize]);
-                    let cell = cell_input(a, b, opts.t);
-                    examine(surface, cell, opts)
+                .par_chunks(BATCH)
+                .flat_map_iter(|chunk| {
+                    let cells: Vec<[Interval; 4]> = chunk
+                        .iter()
+                        .map(|&i| {
+                            let (a, b) = tree.cell_box(&tree.nodes[i as usize]);
+                            cell_input(a, b, opts.t)
+                        })
+                        .collect();
+                    examine(surface, &cells, opts)
                 })
                 .collect();
             evaluated += frontier.len();
