@@ -65,13 +65,7 @@ impl Error {
                 file,
                 source,
                 diagnostics,
-            } => {
-                let mut out = String::new();
-                for d in diagnostics {
-                    crate::syntax::diag::render(file, source, d, &mut out);
-                }
-                out
-            }
+            } => crate::syntax::diag::render_all(file, source, diagnostics),
             Error::Usage(m) => format!("error: {m}\n"),
             Error::Io { path, error } => format!("error: {path}: {error}\n"),
         }

@@ -7,7 +7,7 @@
 use std::collections::HashSet;
 
 use glam::DVec3;
-use isoc::dual;
+use isoc::dual::{self, Corner};
 use isoc::octree::{Leaf, Node, Octree, OctreeStats};
 
 /// An octree over [0,1]³ split wherever `split(level, ijk)` says, to at
@@ -45,10 +45,75 @@ fn tree(max: u8, split: &dyn Fn(u8, [u32; 3]) -> bool) -> Octree {
     }
 }
 
+/// The dual cells made only of real leaves (no ghost corner), as leaf ids.
 fn cells(t: &Octree) -> Vec<[u32; 8]> {
     let mut v = Vec::new();
-    dual::for_each_cell(t, |c| v.push(c));
+    dual::for_each_cell(t, |c| {
+        if c.iter().all(|k| !k.is_ghost()) {
+            v.push(c.map(|k| k.node));
+        }
+    });
     v
+}
+
+/// Volume of the trilinear hexahedron with corners `p` (corner order), by
+/// 2-point Gauss–Legendre quadrature of det J (exact: det J has degree at
+/// most 2 in each variable).
+fn hex_volume(p: &[DVec3; 8]) -> f64 {
+    let g = [0.5 - 0.5 / 3f64.sqrt(), 0.5 + 0.5 / 3f64.sqrt()];
+    let mut vol = 0.0;
+    for &u in &g {
+        for &v in &g {
+            for &w in &g {
+                let lerp2 = |a: DVec3, b: DVec3, c: DVec3, d: DVec3, s: f64, t: f64| {
+                    a.lerp(b, s).lerp(c.lerp(d, s), t)
+                };
+                let du = lerp2(p[1] - p[0], p[3] - p[2], p[5] - p[4], p[7] - p[6], v, w);
+                let dv = lerp2(p[2] - p[0], p[3] - p[1], p[6] - p[4], p[7] - p[5], u, w);
+                let dw = lerp2(p[4] - p[0], p[5] - p[1], p[6] - p[2], p[7] - p[3], u, v);
+                vol += du.cross(dv).dot(dw) / 8.0;
+            }
+        }
+    }
+    vol
+}
+
+/// All dual cells, ghosts included, with their corner positions.
+fn all_cells(t: &Octree) -> Vec<([Corner; 8], [DVec3; 8])> {
+    let mut v = Vec::new();
+    dual::for_each_cell(t, |c| v.push((c, c.map(|k| k.position(t)))));
+    v
+}
+
+#[test]
+fn with_ghosts_the_dual_cells_tile_the_domain() {
+    let trees = [
+        tree(3, &|_, _| true),
+        tree(5, &|level, ijk| {
+            let s = (1u32 << level) as f64;
+            let c = ijk.map(|k| (k as f64 + 0.5) / s);
+            level < 1 || (c[0] + c[1] < 0.7 && level < 5) || (c[2] > 0.8 && level < 4)
+        }),
+        tree(6, &|level, ijk| {
+            level < 2 || (ijk == [0, 0, 0] && level < 6)
+        }),
+    ];
+    for (n, t) in trees.iter().enumerate() {
+        let cs = all_cells(t);
+        let mut total = 0.0;
+        for (c, p) in &cs {
+            let v = hex_volume(p);
+            assert!(v >= -1e-12, "tree {n}: inverted dual cell {c:?}: {v}");
+            total += v;
+        }
+        assert!(
+            (total - 1.0).abs() < 1e-9,
+            "tree {n}: dual cells cover {total}, not 1"
+        );
+    }
+    // The uniform tree: (2^L + 1)^3 cells in all.
+    let t = tree(3, &|_, _| true);
+    assert_eq!(all_cells(&t).len(), 9 * 9 * 9);
 }
 
 #[test]

@@ -329,3 +329,22 @@ fn columns_count_characters_not_bytes() {
         &["test.iso:3:9: error: unexpected characters `\" é \"`"],
     );
 }
+
+#[test]
+fn missing_semicolon_before_keyword() {
+    // The statement after the missing `;` still parses (no cascade).
+    expect(
+        "domain [-1, 1]^3\nlet a = x;\nsurface a + 1\n",
+        &[
+            "test.iso:1:17: error: missing `;` at the end of the statement",
+            "test.iso:3:14: error: unexpected end of file",
+        ],
+    );
+    expect(
+        &format!("{D}let a = x +\nlet b = 2;\nsurface a + b + c;"),
+        &[
+            "test.iso:2:12: error: unexpected end of statement",
+            "test.iso:4:17: error: unknown name `c`",
+        ],
+    );
+}

@@ -67,8 +67,8 @@ fn ply_binary_round_trip() {
     for (k, t) in m.triangles.iter().enumerate() {
         let at = faces + k * 13;
         assert_eq!(b[at], 3);
-        for j in 0..3 {
-            assert_eq!(u32_at(&b, at + 1 + 4 * j), t[j]);
+        for (j, &i) in t.iter().enumerate() {
+            assert_eq!(u32_at(&b, at + 1 + 4 * j), i);
         }
     }
 }

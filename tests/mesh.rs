@@ -220,3 +220,29 @@ fn a_surface_leaving_the_domain_gives_a_clean_open_mesh() {
     // An open disc: χ = 1.
     assert_eq!(t.euler, 1, "{t:?}");
 }
+
+#[test]
+fn a_closed_surface_near_the_domain_boundary_stays_closed() {
+    // The surface passes between the outermost leaf centres and ∂Ω: only
+    // the ghost dual cells along the boundary mesh it.
+    let s = surface("domain [-1, 1]^3; surface x^2 + y^2 + z^2 - 0.96;");
+    for level in 3..=5 {
+        let (m, r) = run(&s, level, TopologyTest::Paper, 1);
+        check_closed(&format!("sphere near ∂Ω, level {level}"), &s, &m, &r, &[0]);
+    }
+    let src = std::fs::read_to_string("corpus/torus_fig1.iso").unwrap();
+    let s = surface(&src);
+    let opts = MeshOptions {
+        octree: OctreeOptions {
+            max_level: 6,
+            min_level: 3,
+            kmax: 4.9,
+            test: TopologyTest::Paper,
+            t: 0.0,
+        },
+        smooth: 2,
+        domain: None,
+    };
+    let (m, r) = mesher::mesh(&s, &opts, &|_| {});
+    check_closed("Fig. 1 torus, k_max 4.9", &s, &m, &r, &[1]);
+}

@@ -193,7 +193,12 @@ fn build(e: &Expr, b: &mut Builder) -> Value {
                 b.unary(*u, vs[0])
             } else {
                 let (_, o) = BINARY_FNS.iter().find(|(n, _)| n == f).unwrap();
-                b.binary(*o, vs[0], vs[1])
+                if *o == BinOp::Pow {
+                    // The built-in `pow` means the same as `^`.
+                    b.power(vs[0], vs[1])
+                } else {
+                    b.binary(*o, vs[0], vs[1])
+                }
             }
         }
     }

@@ -164,3 +164,32 @@ fn many_errors_are_capped() {
     assert!(headers(&r).len() <= isoc::syntax::MAX_DIAGNOSTICS + 1);
     assert!(r.contains("too many errors"), "{r}");
 }
+
+#[test]
+fn many_semantic_errors_stay_linear() {
+    let mut src = String::from(D);
+    for i in 0..10_000 {
+        src.push_str(&format!(
+            "let name{i} = nam{i} + g{i}(x) + later{i};\nfn f{i}(u) = h{i}(u);\n"
+        ));
+    }
+    src.push_str("surface x;\n");
+    assert!(!run(&src));
+}
+
+#[test]
+fn deep_calls_and_wide_calls() {
+    let n = 20_000;
+    let src = format!("{D}surface {}x{};", "sin(".repeat(n), ")".repeat(n));
+    assert!(run(&src));
+    let src = format!(
+        "{D}fn f(u) = u + 1;\nsurface {}x{};",
+        "f(".repeat(n),
+        ")".repeat(n)
+    );
+    assert!(run(&src));
+    let l = compile(&src);
+    assert_eq!(eval(&l.program, [0.5, 0.0, 0.0, 0.0]), 0.5 + n as f64);
+    let args = vec!["x"; 100_000].join(", ");
+    assert!(run(&format!("{D}surface max({args}, y);")));
+}

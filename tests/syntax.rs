@@ -195,3 +195,27 @@ fn sets_last_value_wins() {
     .unwrap();
     assert_eq!(l.params, vec![("r".into(), 4.0)]);
 }
+
+#[test]
+fn bad_options_are_usage_errors() {
+    let src = "domain [0,1]^3; param r = 1; surface x - r;";
+    let inf = CompileOptions {
+        params: vec![("r".into(), f64::INFINITY)],
+        domain: None,
+    };
+    assert!(matches!(
+        front_end(src, "f", &inf),
+        Err(isoc::Error::Usage(_))
+    ));
+    let empty = CompileOptions {
+        params: vec![],
+        domain: Some(isoc::Bounds {
+            lo: [0.0, 1.0, 0.0],
+            hi: [1.0, 1.0, 1.0],
+        }),
+    };
+    match front_end(src, "f", &empty) {
+        Err(isoc::Error::Usage(m)) => assert!(m.starts_with("--domain"), "{m}"),
+        other => panic!("{other:?}"),
+    }
+}

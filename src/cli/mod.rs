@@ -295,9 +295,9 @@ fn mesh_command(
     use crate::mesh::mesher::{self, MeshOptions, Stage};
     use crate::octree::{OctreeOptions, TopologyTest};
 
-    if !(m.kmax.is_finite() && m.kmax > 0.0) {
+    if !(m.kmax.is_finite() && m.kmax >= 0.0) {
         return Err(Error::Usage(format!(
-            "--kmax {}: must be a positive number",
+            "--kmax {}: must be a number >= 0 (0 refines uniformly)",
             m.kmax
         )));
     }

@@ -3,16 +3,21 @@
 //!
 //! # Contract
 //!
-//! Every vertex of the octree's cell complex that is interior to the domain
-//! and shared by leaves gives one dual cell: the 8 leaves around it, listed
-//! in the marching-cubes corner order (corner `i` is on the low/high side of
-//! the vertex along x, y, z by bits `i&1`, `(i>>1)&1`, `(i>>2)&1`). Where
-//! leaves of different levels meet, one leaf fills several corners: the
-//! dual cell is a degenerate cube with repeated corners. The dual cells
-//! cover the box spanned by the leaf centres exactly once, so polygonising
-//! them all gives a crack-free surface there. The strip between the
-//! outermost leaf centres and ∂Ω (half a leaf wide) is not covered: a
-//! surface that leaves Ω is cut there, with a clean open boundary.
+//! Every vertex of the octree's cell complex gives one dual cell: the 8
+//! leaves around it, listed in the marching-cubes corner order (corner `i`
+//! is on the low/high side of the vertex along x, y, z by bits `i&1`,
+//! `(i>>1)&1`, `(i>>2)&1`). Where leaves of different levels meet, one leaf
+//! fills several corners: the dual cell is a degenerate cube with repeated
+//! corners.
+//!
+//! **Boundary.** The leaf centres alone span less than Ω: a strip half a
+//! leaf wide along ∂Ω would be lost, and with it any surface there. So the
+//! octree is surrounded by *ghost* leaves: the mirror image of each leaf
+//! that touches ∂Ω, flattened onto ∂Ω — its "centre" is the leaf's centre
+//! projected onto the face (edge, corner) of Ω. A [`Corner`] is a leaf plus
+//! the set of boundary sides it is mirrored across. With the ghosts, the
+//! dual cells tile Ω exactly once: a closed surface anywhere inside Ω is
+//! meshed closed, and a surface that leaves Ω is cut exactly on ∂Ω.
 //!
 //! # Method
 //!
@@ -25,10 +30,60 @@
 //! vertex otherwise. No neighbour pointers are needed. Recursion depth is
 //! bounded by the octree's depth ([`crate::octree::MAX_LEVEL`]).
 
+use glam::DVec3;
+
 use crate::octree::{Node, Octree};
 
-/// A dual cell: 8 leaf indices in corner order (see the module doc).
-pub type DualCell = [u32; 8];
+/// A dual-cell corner: a leaf, or a ghost of a leaf mirrored across the
+/// domain's boundary. `mirror` holds two bits per axis `k` (bits `2k`,
+/// `2k+1`): 0 = not mirrored, 1 = mirrored across the low face, 2 = across
+/// the high face.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Corner {
+    pub node: u32,
+    pub mirror: u8,
+}
+
+impl Corner {
+    /// A real leaf.
+    pub fn leaf(node: u32) -> Corner {
+        Corner { node, mirror: 0 }
+    }
+
+    /// True for a ghost.
+    pub fn is_ghost(self) -> bool {
+        self.mirror != 0
+    }
+
+    /// Which axes are mirrored, as a bit mask over `x y z`.
+    fn axes(self) -> usize {
+        (0..3)
+            .filter(|k| (self.mirror >> (2 * k)) & 3 != 0)
+            .fold(0, |m, k| m | (1 << k))
+    }
+
+    /// The dual vertex: the leaf's centre, projected onto ∂Ω along the
+    /// mirrored axes.
+    pub fn position(self, tree: &Octree) -> DVec3 {
+        let mut p = tree.center(&tree.nodes[self.node as usize]);
+        for k in 0..3 {
+            match (self.mirror >> (2 * k)) & 3 {
+                1 => p[k] = tree.lo[k],
+                2 => p[k] = tree.lo[k] + tree.size[k],
+                _ => {}
+            }
+        }
+        p
+    }
+
+    /// A single dense number for the corner (for keys and sorting).
+    pub fn id(self) -> u64 {
+        (self.node as u64) | ((self.mirror as u64) << 32)
+    }
+}
+
+/// A dual cell: 8 corners in corner order (see the module doc).
+pub type DualCell = [Corner; 8];
 
 struct Walker<'a, F: FnMut(DualCell)> {
     nodes: &'a [Node],
@@ -36,25 +91,29 @@ struct Walker<'a, F: FnMut(DualCell)> {
 }
 
 impl<F: FnMut(DualCell)> Walker<'_, F> {
-    fn leaf(&self, n: u32) -> bool {
-        self.nodes[n as usize].is_leaf()
+    fn leaf(&self, n: Corner) -> bool {
+        self.nodes[n.node as usize].is_leaf()
     }
 
-    /// Child `c` of `n`, or `n` itself when it is a leaf.
-    fn child(&self, n: u32, c: usize) -> u32 {
-        let node = &self.nodes[n as usize];
+    /// Child `c` of `n`, or `n` itself when it is a leaf. A ghost's
+    /// children mirror the real node's: flipped along the mirrored axes.
+    fn child(&self, n: Corner, c: usize) -> Corner {
+        let node = &self.nodes[n.node as usize];
         if node.is_leaf() {
             n
         } else {
-            node.first_child + c as u32
+            Corner {
+                node: node.first_child + (c ^ n.axes()) as u32,
+                mirror: n.mirror,
+            }
         }
     }
 
-    fn cell(&mut self, n: u32) {
+    fn cell(&mut self, n: Corner) {
         if self.leaf(n) {
             return;
         }
-        let c: [u32; 8] = std::array::from_fn(|i| self.child(n, i));
+        let c: [Corner; 8] = std::array::from_fn(|i| self.child(n, i));
         for &k in &c {
             self.cell(k);
         }
@@ -76,7 +135,7 @@ impl<F: FnMut(DualCell)> Walker<'_, F> {
     }
 
     /// The face between `a` (low side along `axis`) and `b` (high side).
-    fn face(&mut self, a: u32, b: u32, axis: usize) {
+    fn face(&mut self, a: Corner, b: Corner, axis: usize) {
         if self.leaf(a) && self.leaf(b) {
             return;
         }
@@ -104,7 +163,7 @@ impl<F: FnMut(DualCell)> Walker<'_, F> {
                 self.edge(n4, e);
             }
         }
-        let v: [u32; 8] = std::array::from_fn(|i| {
+        let v: [Corner; 8] = std::array::from_fn(|i| {
             // Flip along `axis` only: the vertex is mid-face for a and b.
             let n = if i & bit != 0 { b } else { a };
             self.child(n, i ^ bit)
@@ -115,7 +174,7 @@ impl<F: FnMut(DualCell)> Walker<'_, F> {
     /// The edge along `axis` between four nodes; `n[k]` lies on the low or
     /// high side of the edge along the other two axes `(p, q)` by bits
     /// `k&1`, `k>>1`.
-    fn edge(&mut self, n: [u32; 4], axis: usize) {
+    fn edge(&mut self, n: [Corner; 4], axis: usize) {
         if n.iter().all(|&k| self.leaf(k)) {
             return;
         }
@@ -129,7 +188,7 @@ impl<F: FnMut(DualCell)> Walker<'_, F> {
             });
             self.edge(sub, axis);
         }
-        let v: [u32; 8] = std::array::from_fn(|i| {
+        let v: [Corner; 8] = std::array::from_fn(|i| {
             // Flip across the edge (p, q), not along it: the vertex is the
             // edge's midpoint for all four nodes.
             let k = ((i >> p) & 1) | (((i >> q) & 1) << 1);
@@ -139,7 +198,7 @@ impl<F: FnMut(DualCell)> Walker<'_, F> {
     }
 
     /// The vertex shared by eight nodes, `n[i]` in octant `i` around it.
-    fn vert(&mut self, n: [u32; 8]) {
+    fn vert(&mut self, n: [Corner; 8]) {
         if n.iter().all(|&k| self.leaf(k)) {
             (self.emit)(n);
             return;
@@ -158,11 +217,66 @@ fn others(axis: usize) -> (usize, usize) {
     }
 }
 
-/// Calls `emit` once for every dual cell of `tree`.
+/// Calls `emit` once for every dual cell of `tree`, ghost cells along ∂Ω
+/// included.
 pub fn for_each_cell(tree: &Octree, emit: impl FnMut(DualCell)) {
     let mut w = Walker {
         nodes: &tree.nodes,
         emit,
     };
-    w.cell(0);
+    let root = Corner::leaf(0);
+    // The root's ghost across the given sides: `sides[k]` is 0 (none),
+    // 1 (low) or 2 (high).
+    let ghost = |sides: [u8; 3]| Corner {
+        node: 0,
+        mirror: sides[0] | (sides[1] << 2) | (sides[2] << 4),
+    };
+    w.cell(root);
+    for axis in 0..3 {
+        let mut lo = [0u8; 3];
+        lo[axis] = 1;
+        let mut hi = [0u8; 3];
+        hi[axis] = 2;
+        w.face(ghost(lo), root, axis);
+        w.face(root, ghost(hi), axis);
+    }
+    // The 12 edges of Ω: along `axis`, on sides (sp, sq) of the others.
+    for axis in 0..3 {
+        let (p, q) = others(axis);
+        for sp in [1u8, 2] {
+            for sq in [1u8, 2] {
+                let n4 = std::array::from_fn(|k| {
+                    // n[k] is on the low/high side of the edge along p, q
+                    // by the bits of k; the side towards the outside is the
+                    // ghost, the side towards Ω is the root.
+                    let mut sides = [0u8; 3];
+                    let (bp, bq) = ((k & 1) as u8, (k >> 1) as u8);
+                    if (sp == 1) == (bp == 0) {
+                        sides[p] = sp;
+                    }
+                    if (sq == 1) == (bq == 0) {
+                        sides[q] = sq;
+                    }
+                    ghost(sides)
+                });
+                w.edge(n4, axis);
+            }
+        }
+    }
+    // The 8 corners of Ω.
+    for corner in 0..8usize {
+        let n8 = std::array::from_fn(|i| {
+            let mut sides = [0u8; 3];
+            for (k, side) in sides.iter_mut().enumerate() {
+                let c = (corner >> k) & 1; // 0: Ω's low corner along k
+                let b = (i >> k) & 1; // octant side around the vertex
+                if b == c {
+                    // On the outside of Ω along k.
+                    *side = if c == 0 { 1 } else { 2 };
+                }
+            }
+            ghost(sides)
+        });
+        w.vert(n8);
+    }
 }

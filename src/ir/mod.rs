@@ -332,6 +332,6 @@ impl Program {
     /// Which variables the program reads (after dead-code elimination, the
     /// ones its output depends on).
     pub fn uses_var(&self, v: Var) -> bool {
-        self.insts.iter().any(|op| *op == Op::Var(v))
+        self.insts.contains(&Op::Var(v))
     }
 }

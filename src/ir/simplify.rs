@@ -16,7 +16,6 @@
 //! | `-(-a) → a`, `abs(-a) → abs a`, `square(-a) → square a`, `abs(abs a) → abs a`, `square(abs a) → square a` | exact |
 //! | `a + (-b) → a - b`, `a - (-b) → a + b` | exact |
 //! | `a^1 → a`, `a^2 → square a`, `a^0 → 1` | the point rule for `powi` |
-//! | `pow(a, c)` with `c` exactly an integer → `powi(a, c)` | see [`Builder::power`] |
 //!
 //! Note on `a + 0`: `-0 + 0 = +0`, so the rewrite may turn a `-0` into
 //! `+0`. Only the sign of a zero differs; `atan2(±0, x<0)` and `1/±0` then
@@ -93,11 +92,10 @@ pub fn binary(b: &mut Builder, op: BinOp, x: Value, y: Value) -> Option<Value> {
         }
         BinOp::Div => is_num(b, y, 1.0).then_some(x),
         BinOp::Min | BinOp::Max => (x == y).then_some(x),
-        BinOp::Pow => {
-            let n = b.as_const(y)?.as_integer()?;
-            Some(b.powi(x, n))
-        }
-        BinOp::Atan2 => None,
+        // `pow(a, c)` is `exp(c·ln a)`, NaN for a < 0 even when c is an
+        // integer: it is *not* `powi`. The language's `^` picks `powi` for
+        // integer constants before it gets here ([`Builder::power`]).
+        BinOp::Pow | BinOp::Atan2 => None,
     }
 }
 

@@ -113,8 +113,8 @@ pub fn mesh(
 
     progress(Stage::Dual);
     let t0 = Instant::now();
-    let values = extract::leaf_values(&tree, &field);
-    let (active, dual_cells) = extract::active_cells(&tree, &values);
+    let mut values = extract::CornerValues::at_leaves(&tree, &field);
+    let (active, dual_cells) = extract::active_cells(&tree, &field, &mut values);
     let dual_ms = ms(t0);
 
     progress(Stage::Polygonize);

@@ -22,7 +22,7 @@
 
 use crate::eval::grad::GradEval;
 use crate::interval::{self, Interval};
-use crate::ir::{BinOp, UnOp};
+use crate::ir::BinOp;
 
 /// Which topology test the octree applies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -49,12 +49,48 @@ fn contains_zero(i: Interval) -> bool {
     i.lo <= 0.0 && 0.0 <= i.hi
 }
 
-/// Applies the three criteria to one evaluation.
-pub fn judge(g: &GradEval, test: TopologyTest, kmax: f64) -> Verdict {
+/// The mean-value form of `F` over a cell (Moore 1966; the centred form
+/// of interval analysis): `f(B) ⊆ F(c) + Σᵢ ∂ᵢF(B)·(Bᵢ − cᵢ)` for `F`
+/// differentiable on `B`, with `F(c)` the interval value at the centre.
+/// Its width shrinks quadratically with the cell, so on small cells it
+/// proves emptiness where the natural extension `F(B)` cannot.
+pub fn mean_value_form(
+    fc: Interval,
+    grad: [Interval; 3],
+    cell: [Interval; 3],
+    c: [f64; 3],
+) -> Interval {
+    let mut acc = fc;
+    for k in 0..3 {
+        let point = Interval { lo: c[k], hi: c[k] };
+        let (offset, _) = interval::binary(BinOp::Sub, cell[k], point);
+        let (term, _) = interval::binary(BinOp::Mul, grad[k], offset);
+        acc = interval::binary(BinOp::Add, acc, term).0;
+    }
+    acc
+}
+
+/// Applies the three criteria to one evaluation. `value_defined` says
+/// whether `F` itself is defined and continuous on the whole cell;
+/// `g.defined` may be false for a merely non-differentiable `F` (a `min`
+/// crease, `sqrt` at 0), whose gradient enclosure then encloses the
+/// generalised (Clarke) gradient — the hull of the one-sided gradients —
+/// which is what the topology and geometry tests need. `mean_value`, when
+/// given, is a second enclosure of `F` over the cell (see
+/// [`mean_value_form`]), valid only where `F` is differentiable.
+pub fn judge(
+    g: &GradEval,
+    value_defined: bool,
+    mean_value: Option<Interval>,
+    test: TopologyTest,
+    kmax: f64,
+) -> Verdict {
     // Written so that a NaN bound (which a sound kernel never returns) can
     // never discard a cell.
-    let empty = g.defined && (g.value.lo > 0.0 || g.value.hi < 0.0);
-    if empty || !g.defined {
+    let excludes_zero = |i: Interval| i.lo > 0.0 || i.hi < 0.0;
+    let empty = value_defined
+        && (excludes_zero(g.value) || (g.defined && mean_value.is_some_and(excludes_zero)));
+    if empty || !value_defined {
         return Verdict {
             empty,
             topology_ok: false,
@@ -81,28 +117,51 @@ pub fn judge(g: &GradEval, test: TopologyTest, kmax: f64) -> Verdict {
     }
 }
 
-/// `Diam(∇F(B)/‖∇F(B)‖)` with the paper's `Diam(Ix, Iy, Iz) = max |Iᵢ|`,
-/// the largest width of the box that encloses the unit normals over the
-/// cell (Paiva et al. §4.1, geometry criterion). Infinite when the
-/// gradient's norm interval reaches 0.
+/// `Diam(∇F(B)/‖∇F(B)‖)` with the paper's `Diam(Ix, Iy, Iz) = max |Iᵢ|`:
+/// the largest width, over the three components, of the range of the unit
+/// normal `g/‖g‖` as `g` runs over the gradient box `∇F(B)` (Paiva et al.
+/// §4.1, geometry criterion). The range is computed exactly per component
+/// rather than by interval division, which would count the dependency
+/// between `gᵢ` and `‖g‖` twice and refine flat regions for nothing.
+/// Infinite when the box contains the zero vector. (Not a guarantee, so
+/// round-to-nearest is fine here.)
 pub fn normal_spread(grad: [Interval; 3]) -> f64 {
-    let mut norm2 = Interval { lo: 0.0, hi: 0.0 };
-    for c in grad {
-        let (s, _) = interval::unary(UnOp::Square, c);
-        norm2 = interval::binary(BinOp::Add, norm2, s).0;
-    }
-    let (norm, _) = interval::unary(UnOp::Sqrt, norm2);
-    if !(norm.lo > 0.0) {
+    if grad.iter().all(|c| contains_zero(*c)) {
         return f64::INFINITY;
     }
+    // Smallest and largest squares of each component over its interval.
+    let sq_min = |c: Interval| {
+        if contains_zero(c) {
+            0.0
+        } else {
+            (c.lo * c.lo).min(c.hi * c.hi)
+        }
+    };
+    let sq_max = |c: Interval| (c.lo * c.lo).max(c.hi * c.hi);
     let mut widest = 0.0f64;
-    for c in grad {
-        let (n, _) = interval::binary(BinOp::Div, c, norm);
-        let w = n.hi - n.lo;
-        if !w.is_finite() {
+    for i in 0..3 {
+        let (mut rmin, mut rmax) = (0.0, 0.0);
+        for j in (0..3).filter(|&j| j != i) {
+            rmin += sq_min(grad[j]);
+            rmax += sq_max(grad[j]);
+        }
+        // u(a, r²) = a / sqrt(a² + r²) grows with a; for a > 0 it falls as
+        // r² grows, for a < 0 it rises. Max at a = hi, min at a = lo, each
+        // with the r² that pushes it outward.
+        let u = |a: f64, r2: f64| {
+            let n = (a * a + r2).sqrt();
+            if n > 0.0 { a / n } else { 0.0 }
+        };
+        let c = grad[i];
+        if !(c.lo.is_finite() && c.hi.is_finite() && rmax.is_finite()) {
             return f64::INFINITY;
         }
-        widest = widest.max(w);
+        let hi = u(c.hi, if c.hi > 0.0 { rmin } else { rmax });
+        let lo = u(c.lo, if c.lo < 0.0 { rmin } else { rmax });
+        // A zero vector in the box (all r² minima 0 and a straddling 0) was
+        // excluded above; with a = 0 reachable and r² = 0 impossible the
+        // formula is exact.
+        widest = widest.max(hi - lo);
     }
     widest
 }

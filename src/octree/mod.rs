@@ -110,6 +110,70 @@ pub struct Octree {
 /// Deepest level allowed: integer positions must fit in `u32` with room.
 pub const MAX_LEVEL: u8 = 20;
 
+/// Extra levels below an ambiguous leaf searched for a proof that it is
+/// empty (see [`Octree::clear_false_ambiguity`]).
+pub const PROOF_DEPTH: u8 = 3;
+
+fn cell_input(a: DVec3, b: DVec3, t: f64) -> [Interval; 4] {
+    [
+        Interval { lo: a.x, hi: b.x },
+        Interval { lo: a.y, hi: b.y },
+        Interval { lo: a.z, hi: b.z },
+        Interval { lo: t, hi: t },
+    ]
+}
+
+/// One interval-gradient evaluation over a cell, judged by the criteria;
+/// the value kernel is asked too when the gradient kernel's flag dropped
+/// (for a merely non-differentiable F), and the centre for the mean-value
+/// form.
+fn examine(surface: &Surface, cell: [Interval; 4], opts: &OctreeOptions) -> criteria::Verdict {
+    let g = surface.grad(cell);
+    let value_defined = g.defined || surface.interval(cell).defined;
+    let mean_value = (g.defined && value_defined).then(|| {
+        let c = [0, 1, 2].map(|k| 0.5 * (cell[k].lo + cell[k].hi));
+        let fc = surface.interval([
+            Interval { lo: c[0], hi: c[0] },
+            Interval { lo: c[1], hi: c[1] },
+            Interval { lo: c[2], hi: c[2] },
+            cell[3],
+        ]);
+        criteria::mean_value_form(fc.iv, g.grad, [cell[0], cell[1], cell[2]], c)
+    });
+    criteria::judge(&g, value_defined, mean_value, opts.test, opts.kmax)
+}
+
+/// Whether the box `[a, b]` is proved free of surface, splitting it up to
+/// `depth` more times.
+fn proves_empty(surface: &Surface, a: DVec3, b: DVec3, opts: &OctreeOptions, depth: u8) -> bool {
+    if examine(surface, cell_input(a, b, opts.t), opts).empty {
+        return true;
+    }
+    if depth == 0 {
+        return false;
+    }
+    let m = (a + b) * 0.5;
+    (0..8).all(|c: u32| {
+        let pick = |k: usize, lo: f64, mid: f64, hi: f64| {
+            if (c >> k) & 1 == 0 {
+                (lo, mid)
+            } else {
+                (mid, hi)
+            }
+        };
+        let (x0, x1) = pick(0, a.x, m.x, b.x);
+        let (y0, y1) = pick(1, a.y, m.y, b.y);
+        let (z0, z1) = pick(2, a.z, m.z, b.z);
+        proves_empty(
+            surface,
+            DVec3::new(x0, y0, z0),
+            DVec3::new(x1, y1, z1),
+            opts,
+            depth - 1,
+        )
+    })
+}
+
 impl Octree {
     /// The box of a node, by the one formula shared by all nodes.
     pub fn cell_box(&self, n: &Node) -> (DVec3, DVec3) {
@@ -148,10 +212,6 @@ impl Octree {
             size: DVec3::from_array(domain.hi) - DVec3::from_array(domain.lo),
             stats: OctreeStats::default(),
         };
-        let t = Interval {
-            lo: opts.t,
-            hi: opts.t,
-        };
         let mut frontier: Vec<u32> = vec![0];
         let mut evaluated = 0;
         for level in 0..=max_level {
@@ -162,13 +222,8 @@ impl Octree {
                 .par_iter()
                 .map(|&i| {
                     let (a, b) = tree.cell_box(&tree.nodes[i as usize]);
-                    let g = surface.grad([
-                        Interval { lo: a.x, hi: b.x },
-                        Interval { lo: a.y, hi: b.y },
-                        Interval { lo: a.z, hi: b.z },
-                        t,
-                    ]);
-                    criteria::judge(&g, opts.test, opts.kmax)
+                    let cell = cell_input(a, b, opts.t);
+                    examine(surface, cell, opts)
                 })
                 .collect();
             evaluated += frontier.len();
@@ -215,8 +270,32 @@ impl Octree {
             progress(level, evaluated);
             frontier = next;
         }
+        tree.clear_false_ambiguity(surface, opts);
         tree.count();
         tree
+    }
+
+    /// An ambiguous leaf at the maximal level may be ambiguous only because
+    /// interval enclosures are loose on it: it may hold no surface at all.
+    /// Each one is split further (up to [`PROOF_DEPTH`] levels, for the
+    /// proof only: the octree keeps its leaf) and becomes [`Leaf::Empty`]
+    /// when every piece is proved empty. Nothing else is relaxed.
+    fn clear_false_ambiguity(&mut self, surface: &Surface, opts: &OctreeOptions) {
+        let ambiguous: Vec<usize> = (0..self.nodes.len())
+            .filter(|&i| self.nodes[i].leaf == Some(Leaf::Ambiguous))
+            .collect();
+        let proved: Vec<bool> = ambiguous
+            .par_iter()
+            .map(|&i| {
+                let (a, b) = self.cell_box(&self.nodes[i]);
+                proves_empty(surface, a, b, opts, PROOF_DEPTH)
+            })
+            .collect();
+        for (&i, empty) in ambiguous.iter().zip(proved) {
+            if empty {
+                self.nodes[i].leaf = Some(Leaf::Empty);
+            }
+        }
     }
 
     fn count(&mut self) {

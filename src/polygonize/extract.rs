@@ -5,7 +5,8 @@
 //! # Contract
 //!
 //! - Corner values are the function's values at the leaf centres (point
-//!   kernel). A dual cell with repeated corners (leaves of different sizes)
+//!   kernel), and at the ghost corners along ∂Ω (see [`crate::dual`]) the
+//!   values at the centres' projections onto ∂Ω. A dual cell with repeated corners (leaves of different sizes)
 //!   is polygonised with the repeated values duplicated, as the paper says.
 //! - An edge vertex lies on the dual edge between two leaf centres and is
 //!   **keyed by the pair of leaves**, never by position, so the cells that
@@ -25,7 +26,9 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::mc33::{self, EDGE_CORNERS, Vertex};
-use crate::dual::{self, DualCell};
+use std::collections::HashMap;
+
+use crate::dual::{self, Corner, DualCell};
 use crate::mesh::Mesh;
 use crate::mesh::roots::{Field, bisect, project};
 use crate::octree::{Leaf, Octree};
@@ -34,9 +37,13 @@ use crate::octree::{Leaf, Octree};
 /// leaf first), or an interior vertex of one dual cell.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 enum Key {
-    Edge(u32, u32),
+    Edge(Corner, Corner),
     Interior(u32, u8),
 }
+
+/// One cell's triangles over keys, its interior vertices with their
+/// positions, and how many degenerate triangles it dropped.
+type CellOutput = (Vec<[Key; 3]>, Vec<(Key, DVec3)>, usize);
 
 /// Counts of the extraction.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -45,31 +52,66 @@ pub struct ExtractStats {
     pub dropped_degenerate: usize,
 }
 
-/// The function's values at the leaf centres (internal nodes get NaN,
-/// never read), evaluated in parallel.
-pub fn leaf_values(tree: &Octree, field: &dyn Field) -> Vec<f64> {
-    tree.nodes
-        .par_iter()
-        .map(|n| {
-            if n.is_leaf() {
-                field.value(tree.center(n))
-            } else {
-                f64::NAN
-            }
-        })
-        .collect()
+/// The function's values at the dual grid's corners: at every leaf centre
+/// (internal nodes get NaN, never read), and at the ghost corners met so
+/// far.
+pub struct CornerValues {
+    leaves: Vec<f64>,
+    ghosts: HashMap<Corner, f64>,
+}
+
+impl CornerValues {
+    /// Values at every leaf centre, evaluated in parallel.
+    pub fn at_leaves(tree: &Octree, field: &dyn Field) -> CornerValues {
+        let leaves = tree
+            .nodes
+            .par_iter()
+            .map(|n| {
+                if n.is_leaf() {
+                    field.value(tree.center(n))
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect();
+        CornerValues {
+            leaves,
+            ghosts: HashMap::new(),
+        }
+    }
+
+    /// The value at `c` (a ghost must have been met by [`active_cells`]).
+    pub fn get(&self, c: Corner) -> f64 {
+        if c.is_ghost() {
+            self.ghosts[&c]
+        } else {
+            self.leaves[c.node as usize]
+        }
+    }
 }
 
 /// The dual cells whose corner values change sign, and the number of dual
-/// cells visited.
-pub fn active_cells(tree: &Octree, values: &[f64]) -> (Vec<DualCell>, usize) {
+/// cells visited. Evaluates the ghost corners' values on the way.
+pub fn active_cells(
+    tree: &Octree,
+    field: &dyn Field,
+    values: &mut CornerValues,
+) -> (Vec<DualCell>, usize) {
     let negative = |v: f64| v < 0.0;
     let mut count = 0;
     let mut active: Vec<DualCell> = Vec::new();
     dual::for_each_cell(tree, |cell| {
         count += 1;
-        let first = negative(values[cell[0] as usize]);
-        if cell.iter().any(|&l| negative(values[l as usize]) != first) {
+        for &c in &cell {
+            if c.is_ghost() {
+                values
+                    .ghosts
+                    .entry(c)
+                    .or_insert_with(|| field.value(c.position(tree)));
+            }
+        }
+        let first = negative(values.get(cell[0]));
+        if cell.iter().any(|&c| negative(values.get(c)) != first) {
             active.push(cell);
         }
     });
@@ -81,7 +123,7 @@ pub fn active_cells(tree: &Octree, values: &[f64]) -> (Vec<DualCell>, usize) {
 pub fn extract(
     tree: &Octree,
     field: &dyn Field,
-    values: &[f64],
+    values: &CornerValues,
     active: &[DualCell],
 ) -> (Mesh, ExtractStats) {
     let nodes = &tree.nodes;
@@ -90,11 +132,11 @@ pub fn extract(
         ..ExtractStats::default()
     };
     // Polygonise every active cell into triangles over keys.
-    let per_cell: Vec<(Vec<[Key; 3]>, Vec<(Key, DVec3)>, usize)> = active
+    let per_cell: Vec<CellOutput> = active
         .par_iter()
         .enumerate()
         .map(|(ci, cell)| {
-            let v: [f64; 8] = cell.map(|l| values[l as usize]);
+            let v: [f64; 8] = cell.map(|c| values.get(c));
             let cm = mc33::polygonize(&v);
             let keys: Vec<Key> = cm
                 .vertices()
@@ -145,16 +187,13 @@ pub fn extract(
         .flat_map(|(_, i, _)| i.iter().copied())
         .collect();
 
-    let ambiguous_leaf = |l: u32| nodes[l as usize].leaf == Some(Leaf::Ambiguous);
+    let ambiguous_leaf = |c: Corner| nodes[c.node as usize].leaf == Some(Leaf::Ambiguous);
     let placed: Vec<(DVec3, bool)> = keys
         .par_iter()
         .map(|k| match *k {
             Key::Edge(a, b) => {
-                let (pa, pb) = (
-                    tree.center(&nodes[a as usize]),
-                    tree.center(&nodes[b as usize]),
-                );
-                let p = bisect(field, pa, pb, values[a as usize], values[b as usize]);
+                let (pa, pb) = (a.position(tree), b.position(tree));
+                let p = bisect(field, pa, pb, values.get(a), values.get(b));
                 (p, ambiguous_leaf(a) || ambiguous_leaf(b))
             }
             Key::Interior(ci, _) => {
@@ -189,7 +228,7 @@ pub fn extract(
 /// The point with cell coordinates `p` in the dual cell's trilinear map of
 /// its corner leaves' centres.
 fn trilinear_map(tree: &Octree, cell: &DualCell, p: DVec3) -> DVec3 {
-    let c: [DVec3; 8] = cell.map(|l| tree.center(&tree.nodes[l as usize]));
+    let c: [DVec3; 8] = cell.map(|l| l.position(tree));
     let x00 = c[0].lerp(c[1], p.x);
     let x10 = c[2].lerp(c[3], p.x);
     let x01 = c[4].lerp(c[5], p.x);
@@ -202,7 +241,7 @@ fn cell_reach(tree: &Octree, cell: &DualCell) -> f64 {
     let (lo, hi) = cell.iter().fold(
         (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
         |(lo, hi), &l| {
-            let c = tree.center(&tree.nodes[l as usize]);
+            let c = l.position(tree);
             (lo.min(c), hi.max(c))
         },
     );

@@ -1,3 +1,17 @@
-//! Polygonisation of dual cells (temporary mod file; replaced by the mesh branch).
+//! Polygonisation of (dual) cells.
+//!
+//! * [`mc33`]: the topologically correct Marching Cubes 33 polygoniser of one
+//!   cube cell given its 8 corner values (Lewiner et al. 2003; Chernyaev
+//!   1995), derived procedurally from the trilinear interpolant rather than
+//!   from a case table. Degenerate dual cells (Paiva et al. 2006, §4.3:
+//!   corners repeated where octree leaves of different sizes meet) need
+//!   nothing special: their key is the 8 values with the repeated corners'
+//!   values duplicated.
+//! * [`extract`]: dual marching cubes over the octree — every active dual
+//!   cell through [`mc33`], vertices keyed by leaf pairs and bisected onto
+//!   the surface, joined into one mesh.
+//! * [`topology`]: components and Euler characteristic of a triangle set with
+//!   shared vertex ids (used by the MC33 verification).
 pub mod extract;
 pub mod mc33;
+pub mod topology;

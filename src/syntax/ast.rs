@@ -14,8 +14,9 @@
 //! # Layout
 //!
 //! [`Ast`] (arena + statements, with the push helpers the grammar actions
-//! call), [`Expr`]/[`ExprKind`], [`Stmt`]/[`StmtKind`], and the printer
-//! [`Ast::print`] used by `isoc compile --emit ast`.
+//! call), [`Expr`]/[`ExprKind`], [`Stmt`]/[`StmtKind`], the printer
+//! [`Ast::print`] used by `isoc compile --emit ast`, and [`Ast::print_infix`]
+//! (source text again, fully parenthesised).
 
 use crate::error::Diagnostic;
 use std::fmt::Write;
@@ -129,6 +130,10 @@ pub struct Ast {
     pub stmts: Vec<Stmt>,
     /// Syntax errors found (and recovered from) while parsing.
     pub errors: Vec<Diagnostic>,
+    /// Every name that follows `let`, `param` or `fn` in the token stream,
+    /// including in statements that failed to parse: resolution does not
+    /// report such names as unknown (that error would only be a cascade).
+    pub declared: std::collections::HashSet<String>,
 }
 
 impl Ast {
@@ -228,6 +233,58 @@ impl Ast {
             out.push('\n');
         }
         out
+    }
+
+    /// Appends `root` to `out` as fully parenthesised infix source text that
+    /// parses back to the same tree (`-a` → `(-a)`, `a + b` → `(a + b)`),
+    /// iteratively.
+    pub fn print_infix(&self, root: ExprId, out: &mut String) {
+        enum Job {
+            Node(ExprId),
+            Text(&'static str),
+        }
+        let mut stack = vec![Job::Node(root)];
+        while let Some(job) = stack.pop() {
+            let id = match job {
+                Job::Text(t) => {
+                    out.push_str(t);
+                    continue;
+                }
+                Job::Node(id) => id,
+            };
+            match &self.expr(id).kind {
+                ExprKind::Num(t) | ExprKind::Name(t) => out.push_str(t),
+                ExprKind::Neg(a) => {
+                    out.push_str("(-");
+                    stack.push(Job::Text(")"));
+                    stack.push(Job::Node(*a));
+                }
+                ExprKind::Bin(op, a, b) => {
+                    out.push('(');
+                    stack.push(Job::Text(")"));
+                    stack.push(Job::Node(*b));
+                    stack.push(Job::Text(match op {
+                        BinKind::Add => " + ",
+                        BinKind::Sub => " - ",
+                        BinKind::Mul => " * ",
+                        BinKind::Div => " / ",
+                        BinKind::Pow => " ^ ",
+                    }));
+                    stack.push(Job::Node(*a));
+                }
+                ExprKind::Call { name, args, .. } => {
+                    out.push_str(name);
+                    out.push('(');
+                    stack.push(Job::Text(")"));
+                    for (i, &a) in args.iter().enumerate().rev() {
+                        stack.push(Job::Node(a));
+                        if i > 0 {
+                            stack.push(Job::Text(", "));
+                        }
+                    }
+                }
+            }
+        }
     }
 
     /// Appends the s-expression of `root` to `out`, iteratively.

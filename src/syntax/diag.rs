@@ -21,9 +21,28 @@ use crate::error::Diagnostic;
 use codespan_reporting::files::{Files, SimpleFile};
 use std::fmt::Write;
 
+/// Renders every diagnostic of `diags` (see the module doc), in order.
+pub fn render_all(file: &str, source: &str, diags: &[Diagnostic]) -> String {
+    let sf = SimpleFile::new(file, source);
+    let mut out = String::new();
+    for d in diags {
+        render_one(&sf, file, source, d, &mut out);
+    }
+    out
+}
+
 /// Renders `d` (see the module doc) and appends it to `out`.
 pub fn render(file: &str, source: &str, d: &Diagnostic, out: &mut String) {
-    let sf = SimpleFile::new(file, source);
+    render_one(&SimpleFile::new(file, source), file, source, d, out);
+}
+
+fn render_one(
+    sf: &SimpleFile<&str, &str>,
+    file: &str,
+    source: &str,
+    d: &Diagnostic,
+    out: &mut String,
+) {
     let start = clamp(source, d.span.start);
     let end = clamp(source, d.span.end.max(start));
     let line = sf.line_index((), start).unwrap_or(0);

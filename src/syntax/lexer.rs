@@ -22,8 +22,7 @@ use std::fmt;
 #[derive(Logos, Clone, Copy, Debug, PartialEq)]
 #[logos(skip r"[ \t\r\n\f]+")]
 // Comments run to the end of the line: the greedy `[^\n]*` is intended.
-#[logos(skip(r"#[^\n]*", allow_greedy = true))]
-#[logos(skip(r"//[^\n]*", allow_greedy = true))]
+#[logos(skip(r"(#|//)[^\n]*", allow_greedy = true))]
 pub enum Tok<'s> {
     #[token("domain")]
     Domain,

@@ -6,11 +6,11 @@
 //! `lhs - rhs`) with [`Builder`], inlining every function call. The walk is
 //! an explicit task stack, never recursion. Each `let` is lowered once
 //! (memoised), and so is each call of a function with the same argument
-//! values; a work budget ([`WORK_LIMIT`] nodes) turns pathological
-//! inlining blow-ups into an error instead of a hang.
+//! values; a work budget ([`WORK_LIMIT`] nodes of inlined bodies) turns
+//! pathological inlining blow-ups into an error instead of a hang.
 //!
-//! Literals become [`Const`]s enclosing their exact decimal value; `pi` is
-//! `[PI, next_up(PI)]`; params are exact; `a ^ b` is [`Builder::power`],
+//! Literals become [`Const`]s enclosing their exact decimal value
+//! ([`Const::literal`]); `pi` is [`Const::pi`]; params are exact; `a ^ b` is [`Builder::power`],
 //! `pow(a, b)` too; `min`/`max` of n arguments nest left to right.
 //!
 //! [`eval_const`] runs the same walk over an f64 [`Sink`] to evaluate
@@ -26,9 +26,10 @@ use super::resolve::{Builtin, Res, Resolved};
 use crate::ir::{BinOp, Builder, Const, Program, UnOp, Value, Var};
 use std::collections::HashMap;
 
-/// Maximum number of AST nodes visited while lowering one program (function
-/// inlining can multiply the size of the source).
-pub const WORK_LIMIT: usize = 500_000;
+/// Maximum number of function-body nodes visited while lowering one program
+/// (inlining can multiply the size of the source exponentially; nodes outside
+/// function bodies are lowered once each and are not counted).
+pub const WORK_LIMIT: usize = 200_000;
 
 /// A lowering target.
 pub trait Sink {
@@ -44,33 +45,16 @@ pub trait Sink {
     fn power(&mut self, a: Self::V, b: Self::V) -> Self::V;
 }
 
-/// The enclosure of a decimal literal (the stopgap until
-/// `Const::literal` lands: exact for short integers, else one ulp either
-/// side of the nearest f64).
+/// The enclosure of a decimal literal ([`Const::literal`]). Resolution has
+/// already rejected literals that overflow, so the fallback (an undefined
+/// NaN constant) is never reached for a checked program.
 pub fn literal(text: &str) -> Const {
-    let v: f64 = text.parse().unwrap_or(f64::NAN);
-    let is_small_int = text.len() <= 15 && text.bytes().all(|b| b.is_ascii_digit());
-    if is_small_int || v.is_nan() {
-        Const::exact(v)
-    } else {
-        Const {
-            value: v,
-            lo: v.next_down(),
-            hi: v.next_up(),
-            defined: true,
-        }
-    }
+    Const::literal(text).unwrap_or(Const::exact(f64::NAN))
 }
 
 /// `pi` as a constant: its f64 and an enclosure of the real π.
 pub fn pi_const() -> Const {
-    use std::f64::consts::PI;
-    Const {
-        value: PI,
-        lo: PI,
-        hi: PI.next_up(),
-        defined: true,
-    }
+    Const::pi()
 }
 
 impl Sink for Builder {
@@ -172,10 +156,14 @@ pub fn eval_const(ast: &Ast, res: &[Res], e: ExprId, params: &[f64]) -> f64 {
     walk(ast, &t, e, &mut F64, &mut memo, &mut work).unwrap_or(f64::NAN)
 }
 
-/// The program of the resolved surface, or `Err(())` when inlining exceeds
-/// [`WORK_LIMIT`] (or there is no surface, or resolution left holes).
-pub fn lower_surface(ast: &Ast, r: &Resolved) -> Result<Program, ()> {
-    let (lhs, rhs, _) = r.surface.clone().ok_or(())?;
+/// Why lowering failed: inlining exceeded [`WORK_LIMIT`] (or, for an
+/// unchecked AST, there is no surface or a name was left unresolved).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TooLarge;
+
+/// The program of the resolved surface. See [`TooLarge`].
+pub fn lower_surface(ast: &Ast, r: &Resolved) -> Result<Program, TooLarge> {
+    let (lhs, rhs, _) = r.surface.clone().ok_or(TooLarge)?;
     let params: Vec<f64> = r.params.iter().map(|p| p.1).collect();
     let fns: Vec<ExprId> = r.fns.iter().map(|f| f.body).collect();
     let t = Tables {
@@ -187,9 +175,9 @@ pub fn lower_surface(ast: &Ast, r: &Resolved) -> Result<Program, ()> {
     let mut b = Builder::new();
     let mut memo: Vec<Option<Value>> = vec![None; r.lets.len()];
     let mut work = 0;
-    let mut out = walk(ast, &t, lhs, &mut b, &mut memo, &mut work)?;
+    let mut out = walk(ast, &t, lhs, &mut b, &mut memo, &mut work).map_err(|()| TooLarge)?;
     if let Some(rhs) = rhs {
-        let rv = walk(ast, &t, rhs, &mut b, &mut memo, &mut work)?;
+        let rv = walk(ast, &t, rhs, &mut b, &mut memo, &mut work).map_err(|()| TooLarge)?;
         out = b.binary(BinOp::Sub, out, rv);
     }
     Ok(b.finish(out))
@@ -227,17 +215,33 @@ fn walk<S: Sink>(
     let mut envs: Vec<Vec<S::V>> = vec![Vec::new()];
     let mut calls: HashMap<(usize, Vec<u64>), S::V> = HashMap::new();
     let mut vals: Vec<S::V> = Vec::new();
+    let mut literals: HashMap<&str, S::V> = HashMap::new();
     let mut tasks = vec![Task::Eval(root, 0)];
     while let Some(task) = tasks.pop() {
         match task {
             Task::Eval(id, env) => {
-                *work += 1;
-                if *work > WORK_LIMIT {
-                    return Err(());
+                // Top-level nodes are visited once each (lets are memoised),
+                // so only nodes of inlined function bodies count.
+                if env != 0 {
+                    *work += 1;
+                    if *work > WORK_LIMIT {
+                        return Err(());
+                    }
                 }
                 let r = res.get(id.index()).copied().unwrap_or(Res::None);
                 match &ast.expr(id).kind {
-                    ExprKind::Num(text) => vals.push(sink.literal(text)),
+                    ExprKind::Num(text) => {
+                        // Enclosing a literal exactly is not cheap: once per text.
+                        let v = match literals.get(text.as_str()) {
+                            Some(&v) => v,
+                            None => {
+                                let v = sink.literal(text);
+                                literals.insert(text.as_str(), v);
+                                v
+                            }
+                        };
+                        vals.push(v);
+                    }
                     ExprKind::Name(_) => {
                         let v = match r {
                             Res::Coord(v) => sink.var(v),

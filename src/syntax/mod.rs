@@ -52,7 +52,12 @@ pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowe
     if !diags.is_empty() {
         return Err(source_error(file, source, diags));
     }
-    for (name, _) in &opts.params {
+    for (name, v) in &opts.params {
+        if !v.is_finite() {
+            return Err(Error::Usage(format!(
+                "--set {name}={v}: the value must be a finite number"
+            )));
+        }
         if !r.params.iter().any(|(p, _)| p == name) {
             let known: Vec<&str> = r.params.iter().map(|(p, _)| p.as_str()).collect();
             let hint = match diag::closest(name, known.iter().copied()) {
@@ -65,6 +70,14 @@ pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowe
             )));
         }
     }
+    if let Some(d) = opts.domain
+        && !(0..3).all(|i| d.lo[i].is_finite() && d.hi[i].is_finite() && d.lo[i] < d.hi[i])
+    {
+        return Err(Error::Usage(format!(
+            "--domain: every range must be finite and non-empty, got [{}, {}] x [{}, {}] x [{}, {}]",
+            d.lo[0], d.hi[0], d.lo[1], d.hi[1], d.lo[2], d.hi[2]
+        )));
+    }
     let domain = match (opts.domain, r.domain) {
         (Some(d), _) | (None, Some(d)) => d,
         (None, None) => {
@@ -76,7 +89,7 @@ pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowe
             ));
         }
     };
-    let program = lower::lower_surface(&ast, &r).map_err(|()| {
+    let program = lower::lower_surface(&ast, &r).map_err(|lower::TooLarge| {
         let span = r.surface.as_ref().map_or(0..0, |s| s.2.clone());
         source_error(
             file,
@@ -87,7 +100,7 @@ pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowe
                     span,
                 )
                 .with_note(format!(
-                    "note: lowering it visits more than {} expression nodes",
+                    "note: inlining visits more than {} nodes of function bodies",
                     lower::WORK_LIMIT
                 )),
             ],

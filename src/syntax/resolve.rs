@@ -158,6 +158,12 @@ struct Resolver<'a> {
     fn_index: HashMap<String, usize>,
     /// Members (sorted) of the call cycles already reported.
     cycles: Vec<Vec<usize>>,
+    /// Names of all fns, in source order.
+    fn_names: Vec<String>,
+    /// Byte offset of the start of every line.
+    line_starts: Vec<usize>,
+    /// False when the file had syntax errors.
+    complete: bool,
 }
 
 /// Resolves and checks `ast`. `complete` is false when the file had syntax
@@ -183,6 +189,11 @@ pub fn resolve(
         callees: Vec::new(),
         fn_index: HashMap::new(),
         cycles: Vec::new(),
+        fn_names: Vec::new(),
+        complete,
+        line_starts: std::iter::once(0)
+            .chain(source.match_indices('\n').map(|(i, _)| i + 1))
+            .collect(),
     };
     r.prepass();
     r.run(opts, complete);
@@ -191,10 +202,21 @@ pub fn resolve(
 }
 
 impl Resolver<'_> {
+    /// 1-based line number of byte `pos` (binary search in the line starts).
     fn line_of(&self, pos: usize) -> usize {
-        self.source
-            .get(..pos)
-            .map_or(1, |s| s.bytes().filter(|&b| b == b'\n').count() + 1)
+        self.line_starts.partition_point(|&s| s <= pos).max(1)
+    }
+
+    /// True when `name` is declared by a statement that failed to parse: an
+    /// "unknown name" error for it would only repeat that syntax error.
+    fn cascade(&self, name: &str) -> bool {
+        !self.complete && self.ast.declared.contains(name)
+    }
+
+    /// Whether to spend time on a "did you mean" search: not once the error
+    /// count is past what will be shown (keeps hostile files linear).
+    fn suggest(&self) -> bool {
+        self.diags.len() < super::MAX_DIAGNOSTICS
     }
 
     fn error(&mut self, msg: impl Into<String>, span: Span) {
@@ -220,6 +242,7 @@ impl Resolver<'_> {
                         .entry(name.name.clone())
                         .or_insert(self.callees.len());
                     self.callees.push(called);
+                    self.fn_names.push(name.name.clone());
                     (name, Kind::Fn)
                 }
                 _ => continue,
@@ -578,8 +601,13 @@ impl Resolver<'_> {
             );
             return Res::None;
         }
+        if self.cascade(name) {
+            return Res::None;
+        }
         let mut d = Diagnostic::new(format!("unknown name `{name}`"), span);
-        if let Some(c) = closest(name, self.visible(ctx, false)) {
+        if self.suggest()
+            && let Some(c) = closest(name, self.visible(ctx, false))
+        {
             d = d.with_note(format!("help: did you mean `{c}`?"));
         }
         self.diags.push(d);
@@ -689,8 +717,13 @@ impl Resolver<'_> {
             )));
             return Res::None;
         }
+        if self.cascade(name) {
+            return Res::None;
+        }
         let mut d = Diagnostic::new(format!("unknown function `{name}`"), span);
-        if let Some(c) = closest(name, self.visible(ctx, true)) {
+        if self.suggest()
+            && let Some(c) = closest(name, self.visible(ctx, true))
+        {
             d = d.with_note(format!("help: did you mean `{c}`?"));
         }
         self.diags.push(d);
@@ -698,14 +731,7 @@ impl Resolver<'_> {
     }
 
     fn fn_name(&self, k: usize) -> Option<&str> {
-        self.ast
-            .stmts
-            .iter()
-            .filter_map(|s| match &s.kind {
-                StmtKind::Fn { name, .. } => Some(name.name.as_str()),
-                _ => None,
-            })
-            .nth(k)
+        self.fn_names.get(k).map(String::as_str)
     }
 
     /// A call path `from → … → to` in the call graph (breadth first), as the
