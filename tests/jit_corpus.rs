@@ -26,6 +26,7 @@ fn every_corpus_file_compiles() {
         let opts = JitOptions {
             keep_text: true,
             verify: true,
+            ..JitOptions::default()
         };
         let k = Kernels::compile_with(prog, &opts).unwrap_or_else(|e| panic!("{name}: {e}"));
         for kind in Kind::ALL {

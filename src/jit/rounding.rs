@@ -97,6 +97,13 @@ pub fn mul(b: &mut FunctionBuilder, x: Value, y: Value) -> (Rounded, Value) {
     let np = b.ins().fneg(p);
     let e = b.ins().fma(x, y, np);
     let tiny = is_tiny(b, p);
+    // A zero operand makes the product exactly zero: no forced widening.
+    let zero = b.ins().f64const(0.0);
+    let zx = b.ins().fcmp(FloatCC::Equal, x, zero);
+    let zy = b.ins().fcmp(FloatCC::Equal, y, zero);
+    let z = b.ins().bor(zx, zy);
+    let nz = b.ins().bxor_imm_u(z, 1);
+    let tiny = b.ins().band(tiny, nz);
     (Rounded { r: p, e }, tiny)
 }
 
@@ -106,6 +113,10 @@ pub fn sqrt(b: &mut FunctionBuilder, a: Value) -> (Rounded, Value) {
     let nr = b.ins().fneg(r);
     let e = b.ins().fma(nr, r, a);
     let tiny = is_tiny(b, a);
+    // √0 = 0 exactly.
+    let zero = b.ins().f64const(0.0);
+    let nz = b.ins().fcmp(FloatCC::NotEqual, a, zero);
+    let tiny = b.ins().band(tiny, nz);
     (Rounded { r, e }, tiny)
 }
 
