@@ -109,6 +109,10 @@ pub enum StatsFormat {
 pub enum Emit {
     Ast,
     Ir,
+    /// Cranelift IR of every kernel, after optimisation.
+    Clif,
+    /// Disassembly of every kernel's machine code.
+    Asm,
 }
 
 /// Runs a parsed command line; returns the exit status.
@@ -187,6 +191,22 @@ fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result
     let surface = compile_file(args)?;
     match emit {
         Some(Emit::Ir) => write(out, &surface.program.to_string()),
+        Some(kind @ (Emit::Clif | Emit::Asm)) => {
+            let opts = crate::jit::JitOptions {
+                keep_text: true,
+                ..Default::default()
+            };
+            let kernels =
+                crate::jit::Kernels::compile_with(&surface.program, &opts).map_err(Error::Jit)?;
+            let mut s = String::new();
+            for info in kernels.info() {
+                let text = if kind == Emit::Clif { &info.clif } else { &info.asm };
+                s += &format!("; ---- {} ----\n", info.name);
+                s += text.as_deref().unwrap_or("; (not available)\n");
+                s += "\n";
+            }
+            write(out, &s)
+        }
         _ => {
             let d = surface.domain;
             let mut s = format!(
@@ -202,6 +222,15 @@ fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result
             );
             for (name, v) in &surface.params {
                 s += &format!("  param {name} = {v}\n");
+            }
+            s += "  kernels (machine code, compile time):\n";
+            for info in surface.kernels().info() {
+                s += &format!(
+                    "    {:<15} {:>7} bytes  {:>8.3} ms\n",
+                    info.name,
+                    info.code_bytes,
+                    info.compile_time.as_secs_f64() * 1e3
+                );
             }
             write(out, &s)
         }
