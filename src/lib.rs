@@ -17,6 +17,7 @@ pub mod eval;
 pub mod interval;
 pub mod io;
 pub mod ir;
+pub mod jit;
 pub mod mesh;
 pub mod octree;
 pub mod polygonize;

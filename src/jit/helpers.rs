@@ -1,0 +1,208 @@
+//! `extern "C"` Rust helpers that the kernels call for the operations they
+//! do not inline (transcendentals, division and a few others), registered
+//! with `JITBuilder::symbol` under the names in [`SYMBOLS`].
+//!
+//! Operation codes are indices into [`UnOp::ALL`] / [`BinOp::ALL`]; a code
+//! out of range gives NaN (point) or the whole real line, undefined
+//! (interval), never a panic. Pointers are to arrays of f64 laid out as in
+//! the kernels' ABI (see [`super`]): an interval is `[lo, hi]`, a gradient
+//! record is `[F.lo, F.hi, Fx.lo, Fx.hi, Fy.lo, Fy.hi, Fz.lo, Fz.hi]`.
+//! Interval helpers return the op's decoration (1 defined and continuous on
+//! the operands, else 0); gradient helpers return two bits: bit 0 the
+//! value's decoration, bit 1 the derivatives'. Operand decorations are
+//! combined by the kernel, not here.
+//!
+//! The point helpers are the reference evaluator's own per-op functions
+//! ([`crate::eval::point`]) and the interval helpers the interval module's
+//! per-op enclosures ([`crate::interval`]), so the JIT and the interpreter
+//! cannot disagree on them. The gradient helpers run the reference
+//! gradient evaluator's own per-op rules ([`crate::eval::grad::step`]) on
+//! decorated intervals.
+
+use crate::eval::grad::{self, Dual};
+use crate::interval::{self, DecInterval, Interval};
+use crate::ir::{BinOp, Op, UnOp, Value};
+
+/// `(name, address)` of every helper, for `JITBuilder::symbols`.
+pub fn symbols() -> [(&'static str, *const u8); 7] {
+    [
+        (PT_UNARY, pt_unary as *const u8),
+        (PT_BINARY, pt_binary as *const u8),
+        (IV_UNARY, iv_unary as *const u8),
+        (IV_BINARY, iv_binary as *const u8),
+        (IV_POWI, iv_powi as *const u8),
+        (GD_UNARY, gd_unary as *const u8),
+        (GD_BINARY, gd_binary as *const u8),
+    ]
+}
+
+pub const PT_UNARY: &str = "isoc_pt_unary";
+pub const PT_BINARY: &str = "isoc_pt_binary";
+pub const IV_UNARY: &str = "isoc_iv_unary";
+pub const IV_BINARY: &str = "isoc_iv_binary";
+pub const IV_POWI: &str = "isoc_iv_powi";
+pub const GD_UNARY: &str = "isoc_gd_unary";
+pub const GD_BINARY: &str = "isoc_gd_binary";
+/// `gd_binary` op code standing for `powi` (with `n` passed as the second
+/// operand's `F.lo`).
+pub const GD_POWI_CODE: u32 = 1000;
+
+/// The code of a unary op (its index in [`UnOp::ALL`]).
+pub fn unop_code(op: UnOp) -> u32 {
+    UnOp::ALL.iter().position(|&o| o == op).unwrap_or(0) as u32
+}
+
+/// The code of a binary op (its index in [`BinOp::ALL`]).
+pub fn binop_code(op: BinOp) -> u32 {
+    BinOp::ALL.iter().position(|&o| o == op).unwrap_or(0) as u32
+}
+
+const ENTIRE: Interval = Interval {
+    lo: f64::NEG_INFINITY,
+    hi: f64::INFINITY,
+};
+
+extern "C" fn pt_unary(op: u32, a: f64) -> f64 {
+    match UnOp::ALL.get(op as usize) {
+        Some(&op) => crate::eval::point::unary(op, a),
+        None => f64::NAN,
+    }
+}
+
+extern "C" fn pt_binary(op: u32, a: f64, b: f64) -> f64 {
+    match BinOp::ALL.get(op as usize) {
+        Some(&op) => crate::eval::point::binary(op, a, b),
+        None => f64::NAN,
+    }
+}
+
+/// # Safety
+/// `out` points to 2 writable f64.
+unsafe extern "C" fn iv_unary(op: u32, lo: f64, hi: f64, out: *mut f64) -> u8 {
+    let (r, d) = match UnOp::ALL.get(op as usize) {
+        Some(&op) => interval::unary(op, Interval { lo, hi }),
+        None => (ENTIRE, false),
+    };
+    // SAFETY: the kernel passes a 16-byte aligned stack slot of 2 f64.
+    unsafe { write_iv(out, r) };
+    d as u8
+}
+
+/// # Safety
+/// `out` points to 2 writable f64.
+unsafe extern "C" fn iv_binary(
+    op: u32,
+    alo: f64,
+    ahi: f64,
+    blo: f64,
+    bhi: f64,
+    out: *mut f64,
+) -> u8 {
+    let a = Interval { lo: alo, hi: ahi };
+    let b = Interval { lo: blo, hi: bhi };
+    let (r, d) = match BinOp::ALL.get(op as usize) {
+        Some(&op) => interval::binary(op, a, b),
+        None => (ENTIRE, false),
+    };
+    // SAFETY: as in `iv_unary`.
+    unsafe { write_iv(out, r) };
+    d as u8
+}
+
+/// # Safety
+/// `out` points to 2 writable f64.
+unsafe extern "C" fn iv_powi(lo: f64, hi: f64, n: i64, out: *mut f64) -> u8 {
+    let (r, d) = interval::powi(Interval { lo, hi }, n);
+    // SAFETY: as in `iv_unary`.
+    unsafe { write_iv(out, r) };
+    d as u8
+}
+
+/// # Safety
+/// `out` points to 2 writable f64.
+unsafe fn write_iv(out: *mut f64, r: Interval) {
+    // SAFETY: guaranteed by the caller.
+    unsafe {
+        *out = r.lo;
+        *out.add(1) = r.hi;
+    }
+}
+
+/// # Safety
+/// `p` points to 8 readable f64.
+unsafe fn read_dual(p: *const f64) -> Dual<DecInterval> {
+    // SAFETY: guaranteed by the caller.
+    let r = unsafe { std::slice::from_raw_parts(p, 8) };
+    // Operand flags are tracked by the kernel; here every operand is
+    // "defined" and the result's flags are the op's own.
+    let iv = |i: usize| DecInterval::new(Interval::new(r[2 * i], r[2 * i + 1]), true);
+    Dual {
+        v: iv(0),
+        d: [iv(1), iv(2), iv(3)],
+    }
+}
+
+/// # Safety
+/// `p` points to 8 writable f64.
+unsafe fn write_dual(p: *mut f64, g: &Dual<DecInterval>) -> u8 {
+    // SAFETY: guaranteed by the caller.
+    let w = unsafe { std::slice::from_raw_parts_mut(p, 8) };
+    let mut d_ok = true;
+    for (i, iv) in std::iter::once(g.v).chain(g.d).enumerate() {
+        w[2 * i] = iv.iv.lo;
+        w[2 * i + 1] = iv.iv.hi;
+        if i > 0 {
+            d_ok &= iv.defined;
+        }
+    }
+    // Bit 0: the value is defined; bit 1: the derivatives are.
+    g.v.defined as u8 | (d_ok as u8) << 1
+}
+
+/// Runs the reference evaluator's derivative rules ([`grad::step`]) on one
+/// op whose operands are `v0` (and `v1`).
+fn step(op: &Op, vals: &[Dual<DecInterval>]) -> Dual<DecInterval> {
+    // The op reads no input variable; `input` is never consulted.
+    let input = [DecInterval::new(Interval::ENTIRE, false); 4];
+    grad::step(op, vals, input)
+}
+
+/// # Safety
+/// `a` points to 8 readable f64, `out` to 8 writable f64.
+unsafe extern "C" fn gd_unary(op: u32, a: *const f64, out: *mut f64) -> u8 {
+    // SAFETY: the kernel passes stack slots of 8 f64.
+    let a = unsafe { read_dual(a) };
+    let r = match UnOp::ALL.get(op as usize) {
+        Some(&u) => step(&Op::Unary(u, Value(0)), &[a]),
+        None => unknown(),
+    };
+    // SAFETY: as above.
+    unsafe { write_dual(out, &r) }
+}
+
+fn unknown() -> Dual<DecInterval> {
+    let e = DecInterval::new(Interval::ENTIRE, false);
+    Dual { v: e, d: [e; 3] }
+}
+
+/// # Safety
+/// `a`, `b` point to 8 readable f64, `out` to 8 writable f64. For
+/// [`GD_POWI_CODE`], `n` is the exponent and `b` is not read.
+unsafe extern "C" fn gd_binary(op: u32, a: *const f64, b: *const f64, n: i64, out: *mut f64) -> u8 {
+    // SAFETY: the kernel passes stack slots of 8 f64.
+    let a = unsafe { read_dual(a) };
+    let r = if op == GD_POWI_CODE {
+        step(&Op::Powi(Value(0), n), &[a])
+    } else {
+        match BinOp::ALL.get(op as usize) {
+            Some(&bop) => {
+                // SAFETY: as above; `b` is valid for every binary code.
+                let b = unsafe { read_dual(b) };
+                step(&Op::Binary(bop, Value(0), Value(1)), &[a, b])
+            }
+            None => unknown(),
+        }
+    };
+    // SAFETY: as above.
+    unsafe { write_dual(out, &r) }
+}

@@ -1,0 +1,304 @@
+//! Lowering of a [`Program`] to the interval body.
+//!
+//! Each IR value becomes two f64 SSA values `(lo, hi)`, plus one `i8`
+//! accumulator for the decoration "defined and continuous on the whole box"
+//! (the AND of every op's flag).
+//!
+//! Inline, outward rounded with [`super::rounding`] (`down`/`up`: the
+//! round-to-nearest result moved one ulp outward only when its error-free
+//! transformation says it was inexact):
+//!
+//! | op | rule |
+//! |---|---|
+//! | `neg`, `min`, `max` | exact bound arithmetic |
+//! | `abs` | `[max(0, lo, −hi), max(−lo, hi)]`, exact |
+//! | `add`, `sub` | `[down(al + bl), up(ah + bh)]`, `[down(al − bh), up(ah − bl)]` |
+//! | `mul` | min/max of the four products (a NaN product `0·∞` counts as 0), widened |
+//! | `square` | `[down(mig²) ∨ 0, up(mag²)]` |
+//! | `sqrt` | `[down(√max(lo,0)) ∨ 0, up(√hi)]`, empty when `hi < 0`; defined iff `lo ≥ 0` |
+//! | `powi a n`, `1 ≤ n ≤ 8` | exact monotone rules on `mig`/`mag` (even `n`) or the signed bounds (odd `n`), each product of the repeated squaring widened in its direction |
+//!
+//! Everything else (`div`, other `powi`, transcendentals, `atan2`,
+//! `pow`) calls [`crate::interval`]'s per-op enclosures through
+//! [`super::helpers`], which return the op's decoration.
+
+use cranelift_codegen::ir::condcodes::FloatCC;
+use cranelift_codegen::ir::{InstBuilder, Value, types};
+
+use super::{Env, rounding};
+use crate::interval::Interval;
+use crate::ir::{BinOp, Op, Program, UnOp};
+
+/// An interval as two SSA values.
+pub(super) type Iv = (Value, Value);
+
+/// Emits the body; returns the output interval and the decoration (i8).
+/// Each value carries its own flag (`None`: statically true), the AND of
+/// its operands' flags and its op's, so that only ops the output depends
+/// on can clear it — as in the reference evaluator.
+pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (Iv, Value) {
+    let mut vals: Vec<(Iv, Flag)> = Vec::with_capacity(prog.len());
+    let ivs: [Iv; 4] = input.map(|(iv, _)| iv);
+    for (i, op) in prog.insts.iter().enumerate() {
+        let (v, own) = lower_op(env, i, op, &vals, &ivs);
+        let mut d = match *op {
+            Op::Var(var) => input[var.index()].1,
+            _ => own,
+        };
+        for a in op.args() {
+            d = and(env, d, vals[a.index()].1);
+        }
+        vals.push((v, d));
+    }
+    let (iv, d) = vals[prog.output.index()];
+    (iv, flag_value(env, d))
+}
+
+/// A decoration: `None` is statically true, else an i8 that is 0 or 1.
+pub(super) type Flag = Option<Value>;
+
+/// `a ∧ b`.
+pub(super) fn and(env: &mut Env, a: Flag, b: Flag) -> Flag {
+    match (a, b) {
+        (None, x) | (x, None) => x,
+        (Some(a), Some(b)) => Some(env.b.ins().band(a, b)),
+    }
+}
+
+/// The flag as an i8 SSA value.
+pub(super) fn flag_value(env: &mut Env, f: Flag) -> Value {
+    match f {
+        Some(v) => v,
+        None => env.b.ins().iconst(types::I8, 1),
+    }
+}
+
+/// Normalises an input interval as [`crate::interval::Interval::normalize`]
+/// does: a NaN bound gives the entire line, undefined; `lo = +∞` becomes
+/// `MAX`, `hi = −∞` becomes `−MAX`.
+pub(super) fn normalize(env: &mut Env, (lo, hi): Iv) -> (Iv, Flag) {
+    let b = &mut env.b;
+    let ok = b.ins().fcmp(FloatCC::Ordered, lo, hi);
+    let pinf = b.ins().f64const(f64::INFINITY);
+    let ninf = b.ins().f64const(f64::NEG_INFINITY);
+    let max = b.ins().f64const(f64::MAX);
+    let nmax = b.ins().f64const(-f64::MAX);
+    let lo_inf = b.ins().fcmp(FloatCC::Equal, lo, pinf);
+    let hi_inf = b.ins().fcmp(FloatCC::Equal, hi, ninf);
+    let l = b.ins().select(lo_inf, max, lo);
+    let h = b.ins().select(hi_inf, nmax, hi);
+    let l = b.ins().select(ok, l, ninf);
+    let h = b.ins().select(ok, h, pinf);
+    ((l, h), Some(ok))
+}
+
+/// One op: its interval and, when the op can be undefined, its flag.
+pub(super) fn lower_op(
+    env: &mut Env,
+    i: usize,
+    op: &Op,
+    vals: &[(Iv, Flag)],
+    input: &[Iv; 4],
+) -> (Iv, Option<Value>) {
+    match *op {
+        Op::Var(var) => (input[var.index()], None),
+        Op::Const(c) => {
+            let iv = (env.pool_load(i, 1), env.pool_load(i, 2));
+            let d = if c.defined && Interval::new(c.lo, c.hi).normalize().1 {
+                None
+            } else {
+                Some(env.b.ins().iconst(types::I8, 0))
+            };
+            (iv, d)
+        }
+        Op::Unary(u, a) => unary(env, u, vals[a.index()].0),
+        Op::Binary(op, a, b) => binary(env, op, vals[a.index()].0, vals[b.index()].0),
+        Op::Powi(a, n) => {
+            let a = vals[a.index()].0;
+            if n == 0 {
+                ((env.pool_load(i, 1), env.pool_load(i, 2)), None)
+            } else if (1..=INLINE_POWI_MAX).contains(&n) {
+                (powi(env, a, n as u64), None)
+            } else {
+                env.call_iv_powi(a, n)
+            }
+        }
+    }
+}
+
+pub(super) fn unary(env: &mut Env, u: UnOp, (lo, hi): Iv) -> (Iv, Option<Value>) {
+    match u {
+        UnOp::Neg => {
+            let b = &mut env.b;
+            ((b.ins().fneg(hi), b.ins().fneg(lo)), None)
+        }
+        UnOp::Abs => {
+            let (mig, mag) = mig_mag(env, (lo, hi));
+            ((mig, mag), None)
+        }
+        UnOp::Square => {
+            let (mig, mag) = mig_mag(env, (lo, hi));
+            let b = &mut env.b;
+            let (l, lt) = rounding::mul(b, mig, mig);
+            let (h, ht) = rounding::mul(b, mag, mag);
+            let l = rounding::lower(b, l, Some(lt));
+            let l = clamp0(b, l);
+            let h = rounding::upper(b, h, Some(ht));
+            ((l, h), None)
+        }
+        UnOp::Sqrt => {
+            let b = &mut env.b;
+            let zero = b.ins().f64const(0.0);
+            let defined = b.ins().fcmp(FloatCC::GreaterThanOrEqual, lo, zero);
+            let l0 = b.ins().fmax(lo, zero);
+            let (l, lt) = rounding::sqrt(b, l0);
+            let l = rounding::lower(b, l, Some(lt));
+            let l = clamp0(b, l);
+            let (h, ht) = rounding::sqrt(b, hi);
+            let h = rounding::upper(b, h, Some(ht));
+            // hi < 0: nowhere defined, the empty interval [+∞, −∞].
+            let empty = b.ins().fcmp(FloatCC::LessThan, hi, zero);
+            let pinf = b.ins().f64const(f64::INFINITY);
+            let ninf = b.ins().f64const(f64::NEG_INFINITY);
+            let l = b.ins().select(empty, pinf, l);
+            let h = b.ins().select(empty, ninf, h);
+            ((l, h), Some(defined))
+        }
+        _ => env.call_iv_unary(u, (lo, hi)),
+    }
+}
+
+pub(super) fn binary(env: &mut Env, op: BinOp, a: Iv, bv: Iv) -> (Iv, Option<Value>) {
+    let b = &mut env.b;
+    match op {
+        BinOp::Add => {
+            let l = rounding::add(b, a.0, bv.0);
+            let h = rounding::add(b, a.1, bv.1);
+            (
+                (rounding::lower(b, l, None), rounding::upper(b, h, None)),
+                None,
+            )
+        }
+        BinOp::Sub => {
+            let l = rounding::sub(b, a.0, bv.1);
+            let h = rounding::sub(b, a.1, bv.0);
+            (
+                (rounding::lower(b, l, None), rounding::upper(b, h, None)),
+                None,
+            )
+        }
+        BinOp::Mul => (mul(env, a, bv), None),
+        BinOp::Min => ((b.ins().fmin(a.0, bv.0), b.ins().fmin(a.1, bv.1)), None),
+        BinOp::Max => ((b.ins().fmax(a.0, bv.0), b.ins().fmax(a.1, bv.1)), None),
+        BinOp::Div | BinOp::Atan2 | BinOp::Pow => env.call_iv_binary(op, a, bv),
+    }
+}
+
+/// `max(x, 0)` (sound for a lower bound of a nonnegative quantity).
+fn clamp0(b: &mut cranelift_frontend::FunctionBuilder, x: Value) -> Value {
+    let zero = b.ins().f64const(0.0);
+    b.ins().fmax(x, zero)
+}
+
+/// `(mig, mag)`: the smallest and largest `|x|` on `[lo, hi]`, exact.
+fn mig_mag(env: &mut Env, (lo, hi): Iv) -> Iv {
+    let b = &mut env.b;
+    let zero = b.ins().f64const(0.0);
+    let nlo = b.ins().fneg(lo);
+    let nhi = b.ins().fneg(hi);
+    let m = b.ins().fmax(lo, nhi);
+    let mig = b.ins().fmax(m, zero);
+    let mag = b.ins().fmax(nlo, hi);
+    (mig, mag)
+}
+
+/// Interval product, outward rounded: each of the four products is
+/// rounded down and up by its own error term, then min/max.
+pub(super) fn mul(env: &mut Env, a: Iv, c: Iv) -> Iv {
+    let b = &mut env.b;
+    let zero = b.ins().f64const(0.0);
+    let bounds = [(a.0, c.0), (a.0, c.1), (a.1, c.0), (a.1, c.1)].map(|(x, y)| {
+        let (p, tiny) = rounding::mul(b, x, y);
+        // 0·∞ = NaN stands for 0 in interval arithmetic (its error term is
+        // NaN too, so it stays exact).
+        let nan = b.ins().fcmp(FloatCC::Unordered, p.r, p.r);
+        let r = b.ins().select(nan, zero, p.r);
+        let p = rounding::Rounded { r, e: p.e };
+        (
+            rounding::lower(b, p, Some(tiny)),
+            rounding::upper(b, p, Some(tiny)),
+        )
+    });
+    let lo01 = b.ins().fmin(bounds[0].0, bounds[1].0);
+    let lo23 = b.ins().fmin(bounds[2].0, bounds[3].0);
+    let lo = b.ins().fmin(lo01, lo23);
+    let hi01 = b.ins().fmax(bounds[0].1, bounds[1].1);
+    let hi23 = b.ins().fmax(bounds[2].1, bounds[3].1);
+    let hi = b.ins().fmax(hi01, hi23);
+    (lo, hi)
+}
+
+/// Bounds of `x^n` for `x ≥ 0` (`x` an exact bound), `n ≥ 1`: the repeated
+/// squaring with every product widened in direction `up`.
+fn pow_bound(env: &mut Env, x: Value, mut n: u64, up: bool) -> Value {
+    let b = &mut env.b;
+    let mul_round = |b: &mut cranelift_frontend::FunctionBuilder, x: Value, y: Value| {
+        let (p, tiny) = rounding::mul(b, x, y);
+        if up {
+            rounding::upper(b, p, Some(tiny))
+        } else {
+            let d = rounding::lower(b, p, Some(tiny));
+            clamp0(b, d)
+        }
+    };
+    let mut acc: Option<Value> = None;
+    let mut base = x;
+    loop {
+        if n & 1 == 1 {
+            acc = Some(match acc {
+                None => base,
+                Some(r) => mul_round(b, r, base),
+            });
+        }
+        n >>= 1;
+        if n == 0 {
+            break;
+        }
+        base = mul_round(b, base, base);
+    }
+    acc.unwrap_or(x)
+}
+
+/// Largest exponent computed inline. Each squaring doubles the relative
+/// width of a widened bound, so long chains call the helper, whose
+/// error-free transformations keep exact products exact (`1^(10^10) = 1`).
+pub(super) const INLINE_POWI_MAX: i64 = 8;
+
+/// `[lo, hi]^n`, `n ≥ 1`.
+fn powi(env: &mut Env, (lo, hi): Iv, n: u64) -> Iv {
+    if n == 1 {
+        return (lo, hi);
+    }
+    if n.is_multiple_of(2) {
+        let (mig, mag) = mig_mag(env, (lo, hi));
+        let l = pow_bound(env, mig, n, false);
+        let h = pow_bound(env, mag, n, true);
+        return (l, h);
+    }
+    // Odd: monotone increasing; x^n = sign(x)·|x|^n.
+    let alo = env.b.ins().fabs(lo);
+    let ahi = env.b.ins().fabs(hi);
+    let lo_dn = pow_bound(env, alo, n, false);
+    let lo_up = pow_bound(env, alo, n, true);
+    let hi_dn = pow_bound(env, ahi, n, false);
+    let hi_up = pow_bound(env, ahi, n, true);
+    let b = &mut env.b;
+    let zero = b.ins().f64const(0.0);
+    let lo_neg = b.ins().fcmp(FloatCC::LessThan, lo, zero);
+    let hi_neg = b.ins().fcmp(FloatCC::LessThan, hi, zero);
+    let nlo = b.ins().fneg(lo_up);
+    let nhi = b.ins().fneg(hi_dn);
+    let l = b.ins().select(lo_neg, nlo, lo_dn);
+    let h = b.ins().select(hi_neg, nhi, hi_up);
+    (l, h)
+}
