@@ -172,6 +172,29 @@ impl Case {
         self.fidget.inner()
     }
 
+    /// One isoc JIT compile of all kernels (seconds); for repeated timing.
+    pub fn time_isoc_compile(&self) -> f64 {
+        let t0 = std::time::Instant::now();
+        let k = isoc::jit::Kernels::compile(&self.surface.program).unwrap();
+        let s = t0.elapsed().as_secs_f64();
+        drop(k);
+        s
+    }
+
+    /// One Fidget build: function from the graph + interval, float-slice
+    /// and grad-slice JIT tapes (seconds; graph conversion excluded).
+    pub fn time_fidget_compile(&self) -> f64 {
+        let (ctx, node) = to_fidget(&self.surface.program, 0.0).unwrap();
+        let t0 = std::time::Instant::now();
+        let f = JitFunction::new(&ctx, &[node]).unwrap();
+        let a = f.interval_tape(Default::default());
+        let b = f.float_slice_tape(Default::default());
+        let c = f.grad_slice_tape(Default::default());
+        let s = t0.elapsed().as_secs_f64();
+        drop((a, b, c));
+        s
+    }
+
     /// Instructions in Fidget's compiled tape.
     pub fn fidget_size(&self) -> usize {
         self.function().size()
