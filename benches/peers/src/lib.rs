@@ -636,3 +636,52 @@ pub fn isoc_triangles(m: &isoc::mesh::Mesh) -> Vec<[usize; 3]> {
         .map(|t| t.map(|i| i as usize))
         .collect()
 }
+
+/// First-order distance of mesh vertices to the surface, |f(v)| / ‖∇f(v)‖,
+/// with f and ∇f evaluated in f64 by isoc's gradient kernel on the
+/// degenerate box [v, v] (midpoints of the enclosures). Returns (mean, max)
+/// divided by the finest cell edge of the depth (largest domain edge / 2^depth).
+/// Vertices where ∇f vanishes are skipped.
+pub fn vertex_distance(case: &Case, pts: &[[f64; 3]], depth: u8) -> (f64, f64) {
+    let n = pts.len();
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    let mut input = Vec::with_capacity(8 * n);
+    for p in pts {
+        input.extend([p[0], p[0], p[1], p[1], p[2], p[2], 0.0, 0.0]);
+    }
+    let mut out = vec![0.0; 8 * n];
+    let mut defined = vec![false; n];
+    case.kernels.grad_batch(&input, &mut out, &mut defined).unwrap();
+    let d = case.surface.domain;
+    let edge = (0..3).map(|k| d.hi[k] - d.lo[k]).fold(0.0, f64::max);
+    let h = edge / (1u64 << depth) as f64;
+    let (mut sum, mut max, mut cnt) = (0.0, 0.0f64, 0usize);
+    for i in 0..n {
+        let m = |k: usize| 0.5 * (out[8 * i + 2 * k] + out[8 * i + 2 * k + 1]);
+        let g = (m(1).powi(2) + m(2).powi(2) + m(3).powi(2)).sqrt();
+        if g > 0.0 && g.is_finite() && m(0).is_finite() {
+            let dist = m(0).abs() / g / h;
+            sum += dist;
+            max = max.max(dist);
+            cnt += 1;
+        }
+    }
+    (sum / cnt.max(1) as f64, max)
+}
+
+pub fn fidget_points(m: &fidget::mesh::Mesh) -> Vec<[f64; 3]> {
+    m.vertices.iter().map(|v| [v.x as f64, v.y as f64, v.z as f64]).collect()
+}
+
+pub fn isoc_points(m: &isoc::mesh::Mesh) -> Vec<[f64; 3]> {
+    m.positions.iter().map(|v| [v.x, v.y, v.z]).collect()
+}
+
+/// Triangle centroids: where the chord error of a coarse mesh shows.
+pub fn centroids(pts: &[[f64; 3]], tris: &[[usize; 3]]) -> Vec<[f64; 3]> {
+    tris.iter()
+        .map(|t| std::array::from_fn(|k| (pts[t[0]][k] + pts[t[1]][k] + pts[t[2]][k]) / 3.0))
+        .collect()
+}

@@ -172,13 +172,16 @@ fn main() {
         println!(
             "isoc: paper topology test, k_max = 1, min level 3, no smoothing. Fidget: Manifold Dual Contouring. \
              Topology computed by this benchmark from each mesh's triangles (C = components, g = total genus, \
-             closed = every edge in exactly two triangles); ✓ = closed with the corpus file's expected C and g.\n"
+             closed = every edge in exactly two triangles); ✓ = closed with the corpus file's expected C and g. \
+             Distances: |f(p)| / ‖∇f(p)‖ in f64 at each vertex and at each triangle centroid (a first-order distance to the surface), \
+             in units of the finest cell edge at that depth.\n"
         );
         println!(
             "| formula | depth | isoc ms | Fidget ms | **time ratio** | isoc tris | Fidget tris | **tris ratio** \
-             | isoc topology | Fidget topology | isoc guaranteed (ambiguous cells) | Fidget non-manifold / boundary / misoriented edges |"
+             | isoc topology | Fidget topology | isoc guaranteed (ambiguous cells) | Fidget non-manifold / boundary / misoriented edges \
+             | isoc vertex max | isoc centroid mean / max | Fidget vertex max | Fidget centroid mean / max |"
         );
-        println!("|{}", "---|".repeat(12));
+        println!("|{}", "---|".repeat(16));
         let mesh_reps = if a.quick { 1 } else { 3 };
         for c in &cases {
             for &level in &a.levels {
@@ -216,8 +219,13 @@ fn main() {
                         c.name, tr.components, tr.watertight, it.components, it.watertight
                     );
                 }
+                let (ip, fp) = (isoc_points(&im), fidget_points(&fm));
+                let (_, ivx) = vertex_distance(c, &ip, level);
+                let (icm, icx) = vertex_distance(c, &centroids(&ip, &isoc_triangles(&im)), level);
+                let (_, fvx) = vertex_distance(c, &fp, level);
+                let (fcm, fcx) = vertex_distance(c, &centroids(&fp, &fidget_triangles(&fm)), level);
                 println!(
-                    "| {} | {level} | {:.1} | {:.1} | **{:.2}** | {} | {} | **{:.2}** | {} | {} | {} ({}) | {} / {} / {} |",
+                    "| {} | {level} | {:.1} | {:.1} | **{:.2}** | {} | {} | **{:.2}** | {} | {} | {} ({}) | {} / {} / {} | {:.1e} | {:.1e} / {:.1e} | {:.1e} | {:.1e} / {:.1e} |",
                     c.name,
                     ti * 1e3,
                     tf * 1e3,
@@ -232,6 +240,12 @@ fn main() {
                     ft.nonmanifold_edges,
                     ft.boundary_edges,
                     ft.misoriented_edges,
+                    ivx,
+                    icm,
+                    icx,
+                    fvx,
+                    fcm,
+                    fcx,
                 );
             }
         }
