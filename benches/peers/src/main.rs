@@ -1,0 +1,258 @@
+//! isoc vs Fidget, side by side: prints Markdown tables of timings and
+//! ratios (isoc time / Fidget time; < 1 means isoc is faster).
+//!
+//! ```text
+//! cargo run --release                       # everything (~2–4 min)
+//! cargo run --release -- --quick            # fewer repetitions
+//! cargo run --release -- --levels 6 heart torus
+//! cargo run --release -- --no-mesh          # kernels only
+//! ```
+
+use isoc_peers::*;
+use std::time::Instant;
+
+/// Median wall time (seconds) of `f`, after one warm-up call: at least
+/// `min_reps` runs, then more until `budget` seconds have passed (at most 200).
+fn median(mut f: impl FnMut() -> f64, min_reps: usize, budget: f64) -> f64 {
+    std::hint::black_box(f());
+    let start = Instant::now();
+    let mut t = Vec::new();
+    while t.len() < min_reps || (start.elapsed().as_secs_f64() < budget && t.len() < 200) {
+        let t0 = Instant::now();
+        std::hint::black_box(f());
+        t.push(t0.elapsed().as_secs_f64());
+    }
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
+/// Median of `reps` self-timed measurements.
+fn median_of(mut f: impl FnMut() -> f64, reps: usize) -> f64 {
+    f();
+    let mut t: Vec<f64> = (0..reps).map(|_| f()).collect();
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
+struct Args {
+    quick: bool,
+    mesh: bool,
+    levels: Vec<u8>,
+    only: Vec<String>,
+}
+
+fn args() -> Args {
+    let mut a = Args {
+        quick: false,
+        mesh: true,
+        levels: vec![6, 7],
+        only: vec![],
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(s) = it.next() {
+        match s.as_str() {
+            "--quick" => a.quick = true,
+            "--no-mesh" => a.mesh = false,
+            "--levels" => {
+                a.levels = it
+                    .next()
+                    .expect("--levels 6,7")
+                    .split(',')
+                    .map(|l| l.trim().parse().expect("a level"))
+                    .collect()
+            }
+            "-h" | "--help" => {
+                println!("usage: isoc-peers [--quick] [--no-mesh] [--levels 6,7] [formula…]");
+                std::process::exit(0);
+            }
+            _ => a.only.push(s),
+        }
+    }
+    a
+}
+
+fn ns(s: f64, n: usize) -> String {
+    format!("{:.1}", s * 1e9 / n as f64)
+}
+
+fn topo_cell(components: usize, genus: Option<i64>, watertight: bool, expect: Option<Expect>) -> String {
+    let g = genus.map_or("?".to_string(), |g| g.to_string());
+    let ok = match expect {
+        Some(e) => {
+            if watertight && components == e.components && genus == Some(e.genus) {
+                "✓"
+            } else {
+                "✗"
+            }
+        }
+        None => "",
+    };
+    format!(
+        "C={components} g={g} {} {ok}",
+        if watertight { "closed" } else { "OPEN" }
+    )
+}
+
+fn main() {
+    let a = args();
+    let names: Vec<&str> = CORPUS
+        .iter()
+        .copied()
+        .filter(|n| a.only.is_empty() || a.only.iter().any(|o| o == n))
+        .collect();
+    let (n_points, box_level) = (1usize << 16, 5u32);
+    let (reps, budget) = if a.quick { (5, 0.15) } else { (11, 0.5) };
+    let started = Instant::now();
+
+    let cases: Vec<Case> = names
+        .iter()
+        .map(|n| Case::load(n).unwrap_or_else(|e| panic!("{e}")))
+        .collect();
+
+    println!(
+        "## Kernels (single thread; ns per evaluation, median of ≥{reps} runs; ratio = isoc / Fidget)\n"
+    );
+    println!(
+        "Points: {n_points} random points in the domain per call. Boxes: the {} cells of the uniform \
+         level-{box_level} grid over the domain.\n",
+        1usize << (3 * box_level)
+    );
+    println!(
+        "| formula | IR ops | Fidget ops | f32 agreement | point batch isoc | float_slice Fidget | **ratio** \
+         | interval isoc 1-box | interval isoc batch | interval Fidget 1-box | **ratio 1-box** | **ratio batch** \
+         | grad isoc (interval, batch) | grad_slice Fidget (point) | **ratio** \
+         | compile isoc ms | compile Fidget ms | **ratio** |"
+    );
+    println!("|{}", "---|".repeat(18));
+    for c in &cases {
+        let w = Workload::new(&c.surface.domain, n_points, box_level);
+        let mut r = Runners::new(c, &w);
+        let agree = r.point_agreement();
+        let np = w.n_points();
+        let nb = w.n_boxes();
+        let ip = median(|| r.isoc_point_batch(), reps, budget);
+        let fp = median(|| r.fidget_float_slice(), reps, budget);
+        let ii = median(|| r.isoc_interval_single(), reps, budget);
+        let ib = median(|| r.isoc_interval_batch(), reps, budget);
+        let fi = median(|| r.fidget_interval(), reps, budget);
+        let ig = median(|| r.isoc_grad_batch(), reps, budget);
+        let fg = median(|| r.fidget_grad_slice(), reps, budget);
+        // compile: median of repeated compiles (the first one pays one-time set-up)
+        let ic = median_of(|| c.time_isoc_compile(), reps);
+        let fc = median_of(|| c.time_fidget_compile(), reps);
+        println!(
+            "| {} | {} | {} | {:.1e} | {} | {} | **{:.2}** | {} | {} | {} | **{:.2}** | **{:.2}** | {} | {} | **{:.2}** | {:.2} | {:.2} | **{:.2}** |",
+            c.name,
+            c.surface.program.len(),
+            c.fidget_size(),
+            agree,
+            ns(ip, np),
+            ns(fp, np),
+            ip / fp,
+            ns(ii, nb),
+            ns(ib, nb),
+            ns(fi, nb),
+            ii / fi,
+            ib / fi,
+            ns(ig, nb),
+            ns(fg, nb),
+            ig / fg,
+            ic * 1e3,
+            fc * 1e3,
+            ic / fc,
+        );
+    }
+
+    if a.mesh {
+        println!(
+            "\n## Meshing (same box, same depth; wall time, median of {} runs, {} rayon threads; ratio = isoc / Fidget)\n",
+            if a.quick { 1 } else { 3 },
+            rayon_threads()
+        );
+        println!(
+            "isoc: paper topology test, k_max = 1, min level 3, no smoothing. Fidget: Manifold Dual Contouring. \
+             Topology computed by this benchmark from each mesh's triangles (C = components, g = total genus, \
+             closed = every edge in exactly two triangles); ✓ = closed with the corpus file's expected C and g. \
+             Distances: |f(p)| / ‖∇f(p)‖ in f64 at each vertex and at each triangle centroid (a first-order distance to the surface), \
+             in units of the finest cell edge at that depth.\n"
+        );
+        println!(
+            "| formula | depth | isoc ms | Fidget ms | **time ratio** | isoc tris | Fidget tris | **tris ratio** \
+             | isoc topology | Fidget topology | isoc guaranteed (ambiguous cells) | Fidget non-manifold / boundary / misoriented edges \
+             | isoc vertex max | isoc centroid mean / max | Fidget vertex max | Fidget centroid mean / max |"
+        );
+        println!("|{}", "---|".repeat(16));
+        let mesh_reps = if a.quick { 1 } else { 3 };
+        for c in &cases {
+            for &level in &a.levels {
+                let mut isoc_res = None;
+                let ti = median(
+                    || {
+                        let (m, rep) = isoc_mesh(c, level);
+                        let n = m.triangles.len() as f64;
+                        isoc_res = Some((m, rep));
+                        n
+                    },
+                    mesh_reps,
+                    0.0,
+                );
+                let mut fid_res = None;
+                let tf = median(
+                    || {
+                        let m = fidget_mesh(c, level);
+                        let n = m.triangles.len() as f64;
+                        fid_res = Some(m);
+                        n
+                    },
+                    mesh_reps,
+                    0.0,
+                );
+                let (im, rep) = isoc_res.unwrap();
+                let fm = fid_res.unwrap();
+                let it = topology(&isoc_triangles(&im));
+                let ft = topology(&fidget_triangles(&fm));
+                let tr = &rep.topology;
+                let igenus: Option<i64> = tr.genus.iter().copied().sum();
+                if it.components != tr.components || it.watertight != tr.watertight {
+                    eprintln!(
+                        "note: {} level {level}: isoc's report (C={} watertight={}) differs from this benchmark's count (C={} watertight={})",
+                        c.name, tr.components, tr.watertight, it.components, it.watertight
+                    );
+                }
+                let (ip, fp) = (isoc_points(&im), fidget_points(&fm));
+                let (_, ivx) = vertex_distance(c, &ip, level);
+                let (icm, icx) = vertex_distance(c, &centroids(&ip, &isoc_triangles(&im)), level);
+                let (_, fvx) = vertex_distance(c, &fp, level);
+                let (fcm, fcx) = vertex_distance(c, &centroids(&fp, &fidget_triangles(&fm)), level);
+                println!(
+                    "| {} | {level} | {:.1} | {:.1} | **{:.2}** | {} | {} | **{:.2}** | {} | {} | {} ({}) | {} / {} / {} | {:.1e} | {:.1e} / {:.1e} | {:.1e} | {:.1e} / {:.1e} |",
+                    c.name,
+                    ti * 1e3,
+                    tf * 1e3,
+                    ti / tf,
+                    im.triangles.len(),
+                    fm.triangles.len(),
+                    im.triangles.len() as f64 / fm.triangles.len().max(1) as f64,
+                    topo_cell(tr.components, igenus, tr.watertight, c.expect),
+                    topo_cell(ft.components, ft.genus, ft.watertight, c.expect),
+                    if rep.guaranteed { "yes" } else { "no" },
+                    rep.ambiguous_cells,
+                    ft.nonmanifold_edges,
+                    ft.boundary_edges,
+                    ft.misoriented_edges,
+                    ivx,
+                    icm,
+                    icx,
+                    fvx,
+                    fcm,
+                    fcx,
+                );
+            }
+        }
+    }
+    eprintln!("total {:.1} s", started.elapsed().as_secs_f64());
+}
+
+fn rayon_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
