@@ -175,13 +175,25 @@ impl Surface {
     }
 
     /// `out[i] = f(xs[i], ys[i], zs[i], t)` (batch point kernel).
-    pub fn point_batch(&self, xs: &[f64], ys: &[f64], zs: &[f64], t: f64, out: &mut [f64]) -> Result<(), Error> {
-        self.kernels.point_batch(xs, ys, zs, t, out).map_err(Error::Jit)
+    pub fn point_batch(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        t: f64,
+        out: &mut [f64],
+    ) -> Result<(), Error> {
+        self.kernels
+            .point_batch(xs, ys, zs, t, out)
+            .map_err(Error::Jit)
     }
 
     /// Interval-gradient enclosures over many boxes (batch kernel).
     pub fn grad_batch(&self, boxes: &[[Interval; 4]]) -> Vec<GradEval> {
-        let input: Vec<f64> = boxes.iter().flat_map(|b| b.iter().flat_map(|i| [i.lo, i.hi])).collect();
+        let input: Vec<f64> = boxes
+            .iter()
+            .flat_map(|b| b.iter().flat_map(|i| [i.lo, i.hi]))
+            .collect();
         let mut out = vec![0.0; boxes.len() * 8];
         let mut defined = vec![false; boxes.len()];
         self.kernels
@@ -191,7 +203,10 @@ impl Surface {
             .zip(defined)
             .map(|(o, d)| GradEval {
                 value: Interval { lo: o[0], hi: o[1] },
-                grad: [1, 2, 3].map(|k| Interval { lo: o[2 * k], hi: o[2 * k + 1] }),
+                grad: [1, 2, 3].map(|k| Interval {
+                    lo: o[2 * k],
+                    hi: o[2 * k + 1],
+                }),
                 defined: d,
             })
             .collect()
@@ -199,7 +214,10 @@ impl Surface {
 
     /// Interval enclosures over many boxes (batch kernel).
     pub fn interval_batch(&self, boxes: &[[Interval; 4]]) -> Vec<DecInterval> {
-        let input: Vec<f64> = boxes.iter().flat_map(|b| b.iter().flat_map(|i| [i.lo, i.hi])).collect();
+        let input: Vec<f64> = boxes
+            .iter()
+            .flat_map(|b| b.iter().flat_map(|i| [i.lo, i.hi]))
+            .collect();
         let mut out = vec![0.0; boxes.len() * 2];
         let mut defined = vec![false; boxes.len()];
         self.kernels

@@ -200,7 +200,11 @@ fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result
                 crate::jit::Kernels::compile_with(&surface.program, &opts).map_err(Error::Jit)?;
             let mut s = String::new();
             for info in kernels.info() {
-                let text = if kind == Emit::Clif { &info.clif } else { &info.asm };
+                let text = if kind == Emit::Clif {
+                    &info.clif
+                } else {
+                    &info.asm
+                };
                 s += &format!("; ---- {} ----\n", info.name);
                 s += text.as_deref().unwrap_or("; (not available)\n");
                 s += "\n";

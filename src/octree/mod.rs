@@ -127,7 +127,11 @@ fn cell_input(a: DVec3, b: DVec3, t: f64) -> [Interval; 4] {
 /// the criteria; the value kernel is asked too where the gradient kernel's
 /// flag dropped (for a merely non-differentiable F), and at the centres for
 /// the mean-value form (a second batch call).
-fn examine(surface: &Surface, cells: &[[Interval; 4]], opts: &OctreeOptions) -> Vec<criteria::Verdict> {
+fn examine(
+    surface: &Surface,
+    cells: &[[Interval; 4]],
+    opts: &OctreeOptions,
+) -> Vec<criteria::Verdict> {
     let grads = surface.grad_batch(cells);
     let centres: Vec<[Interval; 4]> = cells
         .iter()
