@@ -59,7 +59,7 @@ fn guaranteed_corpus_meshes_have_the_true_topology() {
     for (name, src) in corpus() {
         let s = Surface::compile(&src, &name, &CompileOptions::default()).unwrap();
         let want = expected(&src);
-        for level in 4..=7 {
+        for level in 4..=8 {
             for test in [TopologyTest::Paper, TopologyTest::Certify] {
                 let r = run(&s, level, 1.0, test);
                 if !r.guaranteed {

@@ -188,7 +188,7 @@ fn guaranteed_never_lies() {
     ];
     for (name, src, genera) in cases {
         let s = surface(src);
-        for level in 4..=7 {
+        for level in 4..=8 {
             for test in [TopologyTest::Paper, TopologyTest::Certify] {
                 let (_, r) = run(&s, level, test, 0);
                 if r.guaranteed {
