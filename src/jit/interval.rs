@@ -224,9 +224,27 @@ pub(super) fn mul(env: &mut Env, a: Iv, c: Iv) -> Iv {
         let nan = b.ins().fcmp(FloatCC::Unordered, p.r, p.r);
         let r = b.ins().select(nan, zero, p.r);
         let p = rounding::Rounded { r, e: p.e };
+        let lo = rounding::lower(b, p, Some(tiny));
+        let hi = rounding::upper(b, p, Some(tiny));
+        // The exact product's sign is known from the operands' signs: a
+        // forced widening (underflow) must not cross 0 — x·y ≥ 0 when the
+        // signs agree, ≤ 0 when they differ. (Comparisons with NaN are
+        // false: no clamp.)
+        let xp = b.ins().fcmp(FloatCC::GreaterThanOrEqual, x, zero);
+        let xn = b.ins().fcmp(FloatCC::LessThanOrEqual, x, zero);
+        let yp = b.ins().fcmp(FloatCC::GreaterThanOrEqual, y, zero);
+        let yn = b.ins().fcmp(FloatCC::LessThanOrEqual, y, zero);
+        let pp = b.ins().band(xp, yp);
+        let nn = b.ins().band(xn, yn);
+        let nonneg = b.ins().bor(pp, nn);
+        let pn = b.ins().band(xp, yn);
+        let np = b.ins().band(xn, yp);
+        let nonpos = b.ins().bor(pn, np);
+        let lo_clamped = b.ins().fmax(lo, zero);
+        let hi_clamped = b.ins().fmin(hi, zero);
         (
-            rounding::lower(b, p, Some(tiny)),
-            rounding::upper(b, p, Some(tiny)),
+            b.ins().select(nonneg, lo_clamped, lo),
+            b.ins().select(nonpos, hi_clamped, hi),
         )
     });
     let lo01 = b.ins().fmin(bounds[0].0, bounds[1].0);

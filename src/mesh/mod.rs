@@ -33,3 +33,39 @@ impl Mesh {
         (b - a).cross(c - a)
     }
 }
+
+/// Vertex → incident triangles, as compressed rows (one `Vec` of triangle
+/// indices, sliced per vertex).
+pub struct Star {
+    start: Vec<u32>,
+    tris: Vec<u32>,
+}
+
+impl Star {
+    pub fn new(mesh: &Mesh) -> Star {
+        let n = mesh.positions.len();
+        let mut start = vec![0u32; n + 1];
+        for t in &mesh.triangles {
+            for &v in t {
+                start[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut tris = vec![0u32; start[n] as usize];
+        for (ti, t) in mesh.triangles.iter().enumerate() {
+            for &v in t {
+                tris[fill[v as usize] as usize] = ti as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        Star { start, tris }
+    }
+
+    /// The triangles around vertex `v`.
+    pub fn of(&self, v: usize) -> &[u32] {
+        &self.tris[self.start[v] as usize..self.start[v + 1] as usize]
+    }
+}

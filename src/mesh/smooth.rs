@@ -17,42 +17,8 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::Mesh;
 use super::roots::{Field, project};
-
-/// Vertex → incident triangles, as compressed rows.
-struct Star {
-    start: Vec<u32>,
-    tris: Vec<u32>,
-}
-
-impl Star {
-    fn new(mesh: &Mesh) -> Star {
-        let n = mesh.positions.len();
-        let mut start = vec![0u32; n + 1];
-        for t in &mesh.triangles {
-            for &v in t {
-                start[v as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
-        let mut tris = vec![0u32; start[n] as usize];
-        for (ti, t) in mesh.triangles.iter().enumerate() {
-            for &v in t {
-                tris[fill[v as usize] as usize] = ti as u32;
-                fill[v as usize] += 1;
-            }
-        }
-        Star { start, tris }
-    }
-
-    fn of(&self, v: usize) -> &[u32] {
-        &self.tris[self.start[v] as usize..self.start[v + 1] as usize]
-    }
-}
+use super::{Mesh, Star};
 
 /// Whether moving vertex `v` to `p` keeps every incident triangle's
 /// orientation and a reasonable share of its area.

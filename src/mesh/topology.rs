@@ -11,7 +11,7 @@
 
 use std::collections::HashMap;
 
-use super::Mesh;
+use super::{Mesh, Star};
 
 /// What [`analyze`] finds.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -133,31 +133,22 @@ pub fn analyze(mesh: &Mesh) -> Topology {
 /// through shared edges around the vertex).
 fn count_bowties(mesh: &Mesh, used: &[bool]) -> usize {
     let n = mesh.positions.len();
-    // For each vertex, the list of (other1, other2) opposite edges.
-    let mut start = vec![0u32; n + 1];
-    for t in &mesh.triangles {
-        for &v in t {
-            start[v as usize + 1] += 1;
-        }
-    }
-    for i in 0..n {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut opp = vec![(0u32, 0u32); start[n] as usize];
-    for t in &mesh.triangles {
-        for k in 0..3 {
-            let v = t[k] as usize;
-            opp[fill[v] as usize] = (t[(k + 1) % 3], t[(k + 2) % 3]);
-            fill[v] += 1;
-        }
-    }
+    let star = Star::new(mesh);
     let mut bad = 0;
     for v in 0..n {
         if !used[v] {
             continue;
         }
-        let fan = &opp[start[v] as usize..start[v + 1] as usize];
+        // The edge opposite `v` in each incident triangle.
+        let fan: Vec<(u32, u32)> = star
+            .of(v)
+            .iter()
+            .map(|&ti| {
+                let t = mesh.triangles[ti as usize];
+                let k = t.iter().position(|&w| w as usize == v).unwrap_or(0);
+                (t[(k + 1) % 3], t[(k + 2) % 3])
+            })
+            .collect();
         // Union the triangles of the fan that share a neighbour vertex.
         let mut uf = UnionFind((0..fan.len() as u32).collect());
         let mut by_nb: HashMap<u32, u32> = HashMap::new();
