@@ -132,13 +132,9 @@ pub fn analyze(mesh: &Mesh) -> Topology {
 /// Vertices whose incident triangles do not form a single fan (connected
 /// through shared edges around the vertex).
 fn count_bowties(mesh: &Mesh, used: &[bool]) -> usize {
-    let n = mesh.positions.len();
     let star = Star::new(mesh);
     let mut bad = 0;
-    for v in 0..n {
-        if !used[v] {
-            continue;
-        }
+    for (v, _) in used.iter().enumerate().filter(|(_, u)| **u) {
         // The edge opposite `v` in each incident triangle.
         let fan: Vec<(u32, u32)> = star
             .of(v)
