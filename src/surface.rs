@@ -190,10 +190,7 @@ impl Surface {
 
     /// Interval-gradient enclosures over many boxes (batch kernel).
     pub fn grad_batch(&self, boxes: &[[Interval; 4]]) -> Vec<GradEval> {
-        let input: Vec<f64> = boxes
-            .iter()
-            .flat_map(|b| b.iter().flat_map(|i| [i.lo, i.hi]))
-            .collect();
+        let input = flatten_boxes(boxes);
         let mut out = vec![0.0; boxes.len() * 8];
         let mut defined = vec![false; boxes.len()];
         self.kernels
@@ -214,10 +211,7 @@ impl Surface {
 
     /// Interval enclosures over many boxes (batch kernel).
     pub fn interval_batch(&self, boxes: &[[Interval; 4]]) -> Vec<DecInterval> {
-        let input: Vec<f64> = boxes
-            .iter()
-            .flat_map(|b| b.iter().flat_map(|i| [i.lo, i.hi]))
-            .collect();
+        let input = flatten_boxes(boxes);
         let mut out = vec![0.0; boxes.len() * 2];
         let mut defined = vec![false; boxes.len()];
         self.kernels
@@ -231,4 +225,13 @@ impl Surface {
             })
             .collect()
     }
+}
+
+/// Boxes as the batch kernels read them: 8 f64 per box,
+/// `[x.lo, x.hi, y.lo, y.hi, z.lo, z.hi, t.lo, t.hi]` (see [`crate::jit`]).
+fn flatten_boxes(boxes: &[[Interval; 4]]) -> Vec<f64> {
+    boxes
+        .iter()
+        .flat_map(|b| b.iter().flat_map(|i| [i.lo, i.hi]))
+        .collect()
 }

@@ -148,20 +148,16 @@ fn examine(
     cells
         .iter()
         .zip(grads)
-        .zip(at_centres)
-        .map(|((cell, g), fc)| {
+        .zip(centres.iter().zip(at_centres))
+        .map(|((cell, g), (centre, fc))| {
             let value_defined = g.defined || surface.interval(*cell).defined;
             let mean_value = (g.defined && value_defined).then(|| {
-                let c = [0, 1, 2].map(|k| centres_mid(cell, k));
+                let c = [0, 1, 2].map(|k| centre[k].lo);
                 criteria::mean_value_form(fc.iv, g.grad, [cell[0], cell[1], cell[2]], c)
             });
             criteria::judge(&g, value_defined, mean_value, opts.test, opts.kmax)
         })
         .collect()
-}
-
-fn centres_mid(cell: &[Interval; 4], k: usize) -> f64 {
-    0.5 * (cell[k].lo + cell[k].hi)
 }
 
 /// Cells per batch call.
