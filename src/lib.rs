@@ -23,6 +23,7 @@ pub mod octree;
 pub mod polygonize;
 pub mod surface;
 pub mod syntax;
+pub mod twin;
 
 pub use error::Error;
 pub use interval::Interval;

@@ -2,6 +2,8 @@
 //! subcommand. Commands write to the `out`/`err` streams they are given and
 //! return the process exit status; only `main` touches the real process.
 
+mod animate;
+
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -67,6 +69,13 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Track a surface in `t` with twinned meshes, frame by frame.
+    Animate {
+        #[command(flatten)]
+        source: SourceArgs,
+        #[command(flatten)]
+        animate: animate::AnimateArgs,
+    },
 }
 
 /// Options of `isoc mesh`.
@@ -127,6 +136,7 @@ pub fn run(cli: Cli, out: &mut dyn Write, err: &mut dyn Write) -> i32 {
             t,
             json,
         } => eval(&source, &coords, bbox.as_deref(), t, json, out),
+        Command::Animate { source, animate } => animate::run(&source, &animate, out, err),
     };
     match result {
         Ok(()) => 0,

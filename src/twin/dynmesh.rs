@@ -1,0 +1,415 @@
+//! The mechanical mesh's mutable triangle mesh: indexed triangles whose
+//! connectivity changes every frame (Bouthors & Nesme §2.5: edge split,
+//! edge collapse; plus edge flips).
+//!
+//! # Layout
+//!
+//! Vertices and triangles are never moved in their arrays while tracking:
+//! a collapse marks one vertex and two triangles dead, a split appends.
+//! Each live vertex keeps its *star* (the live triangles that use it), so
+//! every local operation is O(valence). [`DynMesh::compact`] renumbers
+//! when dead entries pile up; callers remap their per-vertex data with the
+//! map it returns.
+//!
+//! Triangles are counter-clockwise seen from `f > 0` (SPEC §3), like
+//! [`crate::mesh::Mesh`]; every operation here preserves that orientation.
+
+use glam::DVec3;
+
+use crate::mesh::Mesh;
+
+/// An undirected edge, smaller index first.
+pub type EdgeKey = (u32, u32);
+
+/// The key of edge `a–b`.
+pub fn key(a: u32, b: u32) -> EdgeKey {
+    if a < b { (a, b) } else { (b, a) }
+}
+
+/// A mesh under modification. See the module doc.
+#[derive(Clone, Debug, Default)]
+pub struct DynMesh {
+    pub pos: Vec<DVec3>,
+    /// ∇f at `pos` (at the time of the last evaluation).
+    pub grad: Vec<DVec3>,
+    pub vert_alive: Vec<bool>,
+    pub tris: Vec<[u32; 3]>,
+    pub tri_alive: Vec<bool>,
+    /// Live triangles around each vertex.
+    pub star: Vec<Vec<u32>>,
+}
+
+impl DynMesh {
+    /// From an indexed mesh (its normals become the initial gradients;
+    /// vertices no triangle uses are dropped).
+    pub fn from_mesh(mesh: &Mesh) -> DynMesh {
+        let mut remap = vec![u32::MAX; mesh.positions.len()];
+        let mut m = DynMesh::default();
+        for t in &mesh.triangles {
+            let mut nt = [0u32; 3];
+            for (k, &v) in t.iter().enumerate() {
+                let v = v as usize;
+                if remap[v] == u32::MAX {
+                    remap[v] = m.pos.len() as u32;
+                    m.pos.push(mesh.positions[v]);
+                    m.grad
+                        .push(mesh.normals.get(v).copied().unwrap_or(DVec3::ZERO));
+                    m.vert_alive.push(true);
+                    m.star.push(Vec::new());
+                }
+                nt[k] = remap[v];
+            }
+            m.add_tri(nt);
+        }
+        m
+    }
+
+    /// Live triangles.
+    pub fn live_tris(&self) -> impl Iterator<Item = (u32, [u32; 3])> + '_ {
+        self.tris
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| self.tri_alive[*i])
+            .map(|(i, t)| (i as u32, *t))
+    }
+
+    pub fn live_tri_count(&self) -> usize {
+        self.tri_alive.iter().filter(|a| **a).count()
+    }
+
+    pub fn live_vert_count(&self) -> usize {
+        self.vert_alive.iter().filter(|a| **a).count()
+    }
+
+    /// Appends a vertex.
+    pub fn add_vertex(&mut self, p: DVec3, g: DVec3) -> u32 {
+        self.pos.push(p);
+        self.grad.push(g);
+        self.vert_alive.push(true);
+        self.star.push(Vec::new());
+        (self.pos.len() - 1) as u32
+    }
+
+    /// Appends a triangle and registers it in its vertices' stars.
+    pub fn add_tri(&mut self, t: [u32; 3]) -> u32 {
+        let i = self.tris.len() as u32;
+        self.tris.push(t);
+        self.tri_alive.push(true);
+        for v in t {
+            self.star[v as usize].push(i);
+        }
+        i
+    }
+
+    fn kill_tri(&mut self, i: u32) {
+        self.tri_alive[i as usize] = false;
+        for v in self.tris[i as usize] {
+            self.star[v as usize].retain(|&x| x != i);
+        }
+    }
+
+    /// Replaces triangle `i` by `t`, updating stars.
+    fn set_tri(&mut self, i: u32, t: [u32; 3]) {
+        for v in self.tris[i as usize] {
+            self.star[v as usize].retain(|&x| x != i);
+        }
+        self.tris[i as usize] = t;
+        for v in t {
+            self.star[v as usize].push(i);
+        }
+    }
+
+    /// The right-hand normal of triangle `i` (length = twice the area).
+    pub fn normal(&self, i: u32) -> DVec3 {
+        let [a, b, c] = self.tris[i as usize].map(|v| self.pos[v as usize]);
+        (b - a).cross(c - a)
+    }
+
+    /// The live triangles that use edge `a–b`, each rotated so that it
+    /// reads `[a, b, c]` or `[b, a, c]` (the edge first).
+    pub fn edge_tris(&self, a: u32, b: u32) -> Vec<(u32, [u32; 3])> {
+        self.star[a as usize]
+            .iter()
+            .filter_map(|&i| {
+                let t = self.tris[i as usize];
+                if !t.contains(&b) {
+                    return None;
+                }
+                Some((i, rotate_to_edge(t, a, b)))
+            })
+            .collect()
+    }
+
+    /// The vertices adjacent to `v`.
+    pub fn neighbours(&self, v: u32) -> Vec<u32> {
+        let mut out: Vec<u32> = self.star[v as usize]
+            .iter()
+            .flat_map(|&i| self.tris[i as usize])
+            .filter(|&w| w != v)
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// Every live edge once, with its length.
+    pub fn edges(&self) -> Vec<EdgeKey> {
+        let mut out: Vec<EdgeKey> = self
+            .live_tris()
+            .flat_map(|(_, [a, b, c])| [key(a, b), key(b, c), key(c, a)])
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    pub fn length(&self, e: EdgeKey) -> f64 {
+        self.pos[e.0 as usize].distance(self.pos[e.1 as usize])
+    }
+
+    /// Splits edge `a–b` at a new vertex `(p, g)`; each triangle
+    /// `[a, b, c]` becomes `[a, m, c]`, `[m, b, c]`. Returns the new vertex.
+    pub fn split(&mut self, a: u32, b: u32, p: DVec3, g: DVec3) -> u32 {
+        let m = self.add_vertex(p, g);
+        for (i, [x, y, c]) in self.edge_tris(a, b) {
+            self.set_tri(i, [x, m, c]);
+            self.add_tri([m, y, c]);
+        }
+        m
+    }
+
+    /// Collapses edge `a–b` into `a`, moved to `(p, g)`: the triangles of
+    /// the edge die, `b`'s other triangles take `a` instead. The caller
+    /// has checked [`DynMesh::can_collapse_topologically`].
+    pub fn collapse(&mut self, a: u32, b: u32, p: DVec3, g: DVec3) {
+        for (i, _) in self.edge_tris(a, b) {
+            self.kill_tri(i);
+        }
+        for i in self.star[b as usize].clone() {
+            let t = self.tris[i as usize].map(|v| if v == b { a } else { v });
+            self.set_tri(i, t);
+        }
+        self.vert_alive[b as usize] = false;
+        self.star[b as usize].clear();
+        self.pos[a as usize] = p;
+        self.grad[a as usize] = g;
+    }
+
+    /// The link condition (Dey et al. 1999): collapsing `a–b` keeps a
+    /// closed 2-manifold iff the common neighbours of `a` and `b` are
+    /// exactly the two vertices opposite the edge, and neither of those
+    /// drops below valence 3.
+    pub fn can_collapse_topologically(&self, a: u32, b: u32) -> bool {
+        let tris = self.edge_tris(a, b);
+        if tris.len() != 2 {
+            return false;
+        }
+        let opp = [tris[0].1[2], tris[1].1[2]];
+        if opp[0] == opp[1] {
+            return false;
+        }
+        let na = self.neighbours(a);
+        let nb = self.neighbours(b);
+        let common = na.iter().filter(|v| nb.binary_search(v).is_ok()).count();
+        if common != 2 || !opp.iter().all(|v| na.binary_search(v).is_ok()) {
+            return false;
+        }
+        // Valence of the opposite vertices after the collapse; and the
+        // merged vertex keeps at least 3 neighbours.
+        opp.iter().all(|&v| self.star[v as usize].len() > 3) && na.len() + nb.len() - 4 >= 3
+    }
+
+    /// Flips edge `a–b`: `[a, b, c]`, `[b, a, d]` become `[a, d, c]`,
+    /// `[b, c, d]`. Returns the new edge `c–d`, or `None` when the flip is
+    /// not topologically allowed (boundary, `c–d` already an edge, or a
+    /// vertex would drop below valence 3).
+    pub fn flip(&mut self, a: u32, b: u32) -> Option<EdgeKey> {
+        let (c, d, t1, t2) = self.flip_quad(a, b)?;
+        self.set_tri(t1, [a, d, c]);
+        self.set_tri(t2, [b, c, d]);
+        Some(key(c, d))
+    }
+
+    /// The quad of a flippable edge: `(c, d, t1, t2)` with
+    /// `t1 = [a, b, c]`, `t2 = [b, a, d]`.
+    pub fn flip_quad(&self, a: u32, b: u32) -> Option<(u32, u32, u32, u32)> {
+        let tris = self.edge_tris(a, b);
+        if tris.len() != 2 {
+            return None;
+        }
+        let (mut t1, mut t2) = (tris[0], tris[1]);
+        if t1.1[0] != a {
+            std::mem::swap(&mut t1, &mut t2);
+        }
+        if t1.1[0] != a || t2.1[0] != b {
+            return None;
+        }
+        let (c, d) = (t1.1[2], t2.1[2]);
+        if c == d
+            || self.star[a as usize].len() <= 3
+            || self.star[b as usize].len() <= 3
+            || self.neighbours(c).binary_search(&d).is_ok()
+        {
+            return None;
+        }
+        Some((c, d, t1.0, t2.0))
+    }
+
+    /// Renumbers live vertices and triangles densely; returns the vertex
+    /// map (old → new, `u32::MAX` for dead vertices).
+    pub fn compact(&mut self) -> Vec<u32> {
+        let mut remap = vec![u32::MAX; self.pos.len()];
+        let mut n = 0u32;
+        for (i, alive) in self.vert_alive.iter().enumerate() {
+            if *alive {
+                remap[i] = n;
+                n += 1;
+            }
+        }
+        let keep = |v: &Vec<bool>, i: usize| v[i];
+        let pos = (0..self.pos.len())
+            .filter(|&i| keep(&self.vert_alive, i))
+            .map(|i| self.pos[i])
+            .collect();
+        let grad = (0..self.grad.len())
+            .filter(|&i| keep(&self.vert_alive, i))
+            .map(|i| self.grad[i])
+            .collect();
+        let tris: Vec<[u32; 3]> = self
+            .live_tris()
+            .map(|(_, t)| t.map(|v| remap[v as usize]))
+            .collect();
+        let mut m = DynMesh {
+            pos,
+            grad,
+            vert_alive: vec![true; n as usize],
+            tris: Vec::with_capacity(tris.len()),
+            tri_alive: Vec::with_capacity(tris.len()),
+            star: vec![Vec::new(); n as usize],
+        };
+        for t in tris {
+            m.add_tri(t);
+        }
+        *self = m;
+        remap
+    }
+
+    /// A plain [`Mesh`] of the live part, normals the unit gradients.
+    pub fn to_mesh(&self) -> Mesh {
+        let mut c = self.clone();
+        c.compact();
+        Mesh {
+            normals: c.grad.iter().map(|g| g.normalize_or_zero()).collect(),
+            ambiguous: vec![false; c.pos.len()],
+            positions: c.pos,
+            triangles: c.tris,
+        }
+    }
+}
+
+/// `t` rotated so that it starts with edge `a–b` in either direction.
+fn rotate_to_edge(t: [u32; 3], a: u32, b: u32) -> [u32; 3] {
+    for r in 0..3 {
+        let u = [t[r], t[(r + 1) % 3], t[(r + 2) % 3]];
+        if (u[0] == a && u[1] == b) || (u[0] == b && u[1] == a) {
+            return u;
+        }
+    }
+    t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::topology::analyze;
+
+    /// An octahedron, outward oriented.
+    fn octahedron() -> DynMesh {
+        let p = [
+            DVec3::X,
+            DVec3::NEG_X,
+            DVec3::Y,
+            DVec3::NEG_Y,
+            DVec3::Z,
+            DVec3::NEG_Z,
+        ];
+        let tris = vec![
+            [0, 2, 4],
+            [2, 1, 4],
+            [1, 3, 4],
+            [3, 0, 4],
+            [2, 0, 5],
+            [1, 2, 5],
+            [3, 1, 5],
+            [0, 3, 5],
+        ];
+        let mesh = Mesh {
+            positions: p.to_vec(),
+            normals: p.to_vec(),
+            ambiguous: vec![false; 6],
+            triangles: tris,
+        };
+        DynMesh::from_mesh(&mesh)
+    }
+
+    fn check_closed(m: &DynMesh, faces: usize) {
+        let mesh = m.to_mesh();
+        let topo = analyze(&mesh);
+        assert!(topo.watertight, "{topo:?}");
+        assert_eq!(topo.euler, 2);
+        assert_eq!(topo.faces, faces);
+        for (i, t) in m.live_tris() {
+            let n = m.normal(i);
+            let c = t.map(|v| m.pos[v as usize]).iter().sum::<DVec3>();
+            assert!(n.dot(c) > 0.0, "triangle {t:?} faces inwards");
+        }
+    }
+
+    #[test]
+    fn split_collapse_flip_keep_a_closed_oriented_sphere() {
+        let mut m = octahedron();
+        check_closed(&m, 8);
+        let mid = (m.pos[0] + m.pos[2]).normalize();
+        let v = m.split(0, 2, mid, mid);
+        check_closed(&m, 10);
+        assert_eq!(m.neighbours(v), vec![0, 2, 4, 5]);
+        // The new vertex has valence 4 and its edges to 0 and 2 can
+        // collapse back.
+        assert!(m.can_collapse_topologically(v, 0));
+        m.collapse(0, v, DVec3::X, DVec3::X);
+        check_closed(&m, 8);
+        // Octahedron edges have valence-4 ends: a flip would leave valence 3,
+        // which is allowed, and c–d (2 and 3? no: 4 and 5) is not an edge.
+        let e = m.flip(0, 2);
+        assert!(e.is_some());
+        check_closed(&m, 8);
+        m.compact();
+        check_closed(&m, 8);
+    }
+
+    #[test]
+    fn the_link_condition_refuses_a_tetrahedron_collapse() {
+        // A tetrahedron: every collapse would pinch it.
+        let p = vec![
+            DVec3::new(1.0, 1.0, 1.0),
+            DVec3::new(1.0, -1.0, -1.0),
+            DVec3::new(-1.0, 1.0, -1.0),
+            DVec3::new(-1.0, -1.0, 1.0),
+        ];
+        let mesh = Mesh {
+            normals: p.clone(),
+            ambiguous: vec![false; 4],
+            positions: p,
+            triangles: vec![[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]],
+        };
+        let m = DynMesh::from_mesh(&mesh);
+        check_closed(&m, 4);
+        for a in 0..4 {
+            for b in 0..4 {
+                if a != b {
+                    assert!(!m.can_collapse_topologically(a, b));
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,186 @@
+//! The geometric mesh (Bouthors & Nesme §3): a copy of the mechanical
+//! mesh, refined where the surface bends by more than α_r.
+//!
+//! # Contract
+//!
+//! Each pass (at most `N_p`) marks an edge when the unit gradients at its
+//! two end vertices make an angle above α_r, and, when the normals of two
+//! neighbouring triangles (∇f at their centroids) do, the *other* edges of
+//! both triangles (Fig. 7b). The test is `n₁·n₂ < cos α_r`, so α_r = −π
+//! marks nothing: with α_r = −π or `N_p = 0` the result is an exact copy
+//! of the mechanical mesh. Each marked edge gets its midpoint projected
+//! onto the surface by [`super::project::newton`] (an edge whose midpoint
+//! cannot be projected within the edge's length stays unmarked). A
+//! triangle with one, two or three marked edges becomes two, three or
+//! four triangles (Fig. 7a); with two, the quad left beside the corner
+//! triangle is cut along the diagonal whose ends have the closer normals,
+//! i.e. along the direction of least curvature. Marks are per edge, so
+//! both triangles of an edge share its midpoint: no T-vertices, and a
+//! closed oriented mesh stays closed and oriented.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::dynmesh::{EdgeKey, key};
+use super::project::newton;
+use crate::mesh::Mesh;
+use crate::mesh::roots::Field;
+
+/// What [`refine`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RefineStats {
+    pub passes: usize,
+    pub splits: usize,
+}
+
+/// Refines `mech` (whose normals are the unit gradients at its vertices);
+/// see the module doc.
+pub fn refine(
+    mech: &Mesh,
+    field: &dyn Field,
+    alpha_deg: f64,
+    passes: usize,
+) -> (Mesh, RefineStats) {
+    let mut mesh = mech.clone();
+    let mut stats = RefineStats::default();
+    let cos_a = alpha_deg.to_radians().cos();
+    if alpha_deg <= -180.0 || passes == 0 {
+        return (mesh, stats);
+    }
+    for _ in 0..passes {
+        let marked = mark(&mesh, field, cos_a);
+        if marked.is_empty() {
+            break;
+        }
+        // Project the midpoints (in parallel).
+        let mids: Vec<(EdgeKey, Option<(DVec3, DVec3)>)> = marked
+            .par_iter()
+            .map(|&(a, b)| {
+                let (pa, pb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
+                let len = pa.distance(pb);
+                let s = newton(field, (pa + pb) * 0.5, len, 0.5 * len);
+                ((a, b), s.map(|s| (s.pos, s.grad)))
+            })
+            .collect();
+        let mut mid_of: HashMap<EdgeKey, u32> = HashMap::with_capacity(mids.len());
+        for (e, s) in mids {
+            if let Some((p, g)) = s {
+                mid_of.insert(e, mesh.positions.len() as u32);
+                mesh.positions.push(p);
+                mesh.normals.push(g.normalize_or_zero());
+                mesh.ambiguous.push(false);
+            }
+        }
+        if mid_of.is_empty() {
+            break;
+        }
+        stats.splits += mid_of.len();
+        stats.passes += 1;
+        let old = std::mem::take(&mut mesh.triangles);
+        let mut tris = Vec::with_capacity(old.len() * 2);
+        for t in old {
+            subdivide(&mesh, t, &mid_of, &mut tris);
+        }
+        mesh.triangles = tris;
+    }
+    (mesh, stats)
+}
+
+/// The edges to refine in this pass (sorted, each once).
+fn mark(mesh: &Mesh, field: &dyn Field, cos_a: f64) -> Vec<EdgeKey> {
+    let n = &mesh.normals;
+    let tri_normals: Vec<DVec3> = mesh
+        .triangles
+        .par_iter()
+        .map(|t| {
+            let c = t.iter().map(|&v| mesh.positions[v as usize]).sum::<DVec3>() / 3.0;
+            let (_, g) = field.gradient(c);
+            let g = g.normalize_or_zero();
+            if g == DVec3::ZERO {
+                mesh.face_normal(*t).normalize_or_zero()
+            } else {
+                g
+            }
+        })
+        .collect();
+    let mut edge_tris: HashMap<EdgeKey, [u32; 2]> =
+        HashMap::with_capacity(mesh.triangles.len() * 2);
+    for (i, t) in mesh.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let e = key(t[k], t[(k + 1) % 3]);
+            edge_tris
+                .entry(e)
+                .and_modify(|s| s[1] = i as u32)
+                .or_insert([i as u32, u32::MAX]);
+        }
+    }
+    let mut out = Vec::new();
+    for (&(a, b), &[t1, t2]) in &edge_tris {
+        if n[a as usize].dot(n[b as usize]) < cos_a {
+            out.push((a, b));
+        }
+        if t2 != u32::MAX && tri_normals[t1 as usize].dot(tri_normals[t2 as usize]) < cos_a {
+            for ti in [t1, t2] {
+                let t = mesh.triangles[ti as usize];
+                for k in 0..3 {
+                    let e = key(t[k], t[(k + 1) % 3]);
+                    if e != (a, b) {
+                        out.push(e);
+                    }
+                }
+            }
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// Triangle `t` split by the midpoints of its marked edges (Fig. 7a).
+fn subdivide(mesh: &Mesh, t: [u32; 3], mid_of: &HashMap<EdgeKey, u32>, out: &mut Vec<[u32; 3]>) {
+    let m = |k: usize| mid_of.get(&key(t[k], t[(k + 1) % 3])).copied();
+    let ms = [m(0), m(1), m(2)];
+    let count = ms.iter().filter(|x| x.is_some()).count();
+    match count {
+        0 => out.push(t),
+        1 => {
+            let k = (0..3).find(|&k| ms[k].is_some()).unwrap_or(0);
+            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            let mid = ms[k].unwrap_or(a);
+            out.push([a, mid, c]);
+            out.push([mid, b, c]);
+        }
+        2 => {
+            // Rotate so that the unmarked edge is b–c: marked a–b (m1) and
+            // c–a (m2).
+            let k = (0..3).find(|&k| ms[(k + 1) % 3].is_none()).unwrap_or(0);
+            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            let (Some(m1), Some(m2)) = (ms[k], ms[(k + 2) % 3]) else {
+                out.push(t);
+                return;
+            };
+            out.push([a, m1, m2]);
+            let nrm = |v: u32| mesh.normals[v as usize];
+            if nrm(m1).dot(nrm(c)) >= nrm(b).dot(nrm(m2)) {
+                out.push([m1, b, c]);
+                out.push([m1, c, m2]);
+            } else {
+                out.push([m1, b, m2]);
+                out.push([b, c, m2]);
+            }
+        }
+        _ => {
+            let (Some(m1), Some(m2), Some(m3)) = (ms[0], ms[1], ms[2]) else {
+                out.push(t);
+                return;
+            };
+            let [a, b, c] = t;
+            out.push([a, m1, m3]);
+            out.push([m1, b, m2]);
+            out.push([m3, m2, c]);
+            out.push([m1, m2, m3]);
+        }
+    }
+}

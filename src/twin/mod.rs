@@ -1,0 +1,680 @@
+//! Twinned meshes for moving surfaces (Bouthors & Nesme, *Twinned meshes
+//! for dynamic triangulation of implicit surfaces*, GI 2007): a
+//! *mechanical* mesh that follows `f(·, t) = 0` from frame to frame, and a
+//! *geometric* mesh rebuilt from it every frame, refined where the surface
+//! bends.
+//!
+//! # Contract
+//!
+//! [`Tracker::new`] meshes the surface at `t₀` with the robust mesher
+//! ([`crate::mesh::mesher`]) on a uniform octree whose cells match the
+//! target edge length ê (§2.1; no separate relaxation: the first frames
+//! relax it). Each [`Tracker::advance`]`(t)` then
+//!
+//! 1. **watches the topology** over `[t_prev, t]` ([`watch`]): a proof by
+//!    interval arithmetic that no critical point crosses the surface; when
+//!    no proof is found, the robust mesher is run at `t` and, if its
+//!    components or genera differ from the mechanical mesh's, the
+//!    mechanical mesh is **re-initialised** from it (beyond the paper,
+//!    whose §5 leaves topology changes open);
+//! 2. **remeshes** ([`remesh`], §2.5): splits, collapses, flips;
+//! 3. takes one **quasi-static step** (§2.2, eq. 1): `(I − dt ∂f/∂x) Δx =
+//!    dt f(x)` with co-rotational elements ([`fem`], eq. 2), solved by
+//!    conjugate gradients whose residual and iterates are filtered onto
+//!    each vertex's tangent plane (Baraff & Witkin 1998), optionally with
+//!    the sharp-feature constraint (eq. 4) at each iteration;
+//! 4. **projects** every vertex onto `f(·, t) = 0` ([`project`], eq. 3,
+//!    safeguarded); a vertex that cannot be projected within reach means
+//!    the mesh lost the surface, and the mechanical mesh is re-initialised
+//!    from the robust mesher;
+//! 5. **detects inversions** (§2.6) and, while some remain, takes up to
+//!    `recovery_steps` further steps at the same `t`, in which inverted
+//!    elements get the modified displacements of §2.6.2;
+//! 6. **rebuilds the geometric mesh** ([`geometric`], §3).
+//!
+//! Every vertex of both meshes is on the surface to machine precision;
+//! both meshes are closed, oriented 2-manifolds (outward = increasing f)
+//! whenever the surface is closed and strictly inside the domain.
+
+pub mod dynmesh;
+pub mod fem;
+pub mod geometric;
+pub mod project;
+pub mod remesh;
+pub mod watch;
+
+use std::collections::{HashMap, HashSet};
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::error::Error;
+use crate::interval::Interval;
+use crate::mesh::mesher::{self, MeshOptions, SurfaceField};
+use crate::mesh::roots::Field;
+use crate::mesh::{Mesh, quality, topology};
+use crate::octree::OctreeOptions;
+use crate::surface::{Bounds, Surface};
+use dynmesh::{DynMesh, EdgeKey, key};
+use fem::{Frames, Stiffness};
+
+/// Options of the tracker (`isoc animate`). Defaults follow the paper's
+/// Table 1 where it gives values.
+#[derive(Clone, Copy, Debug)]
+pub struct TwinOptions {
+    /// Target mechanical edge length ê; `None`: the domain's largest side
+    /// over 40.
+    pub edge: Option<f64>,
+    /// α_r in degrees (§3); −180 disables refinement.
+    pub alpha_deg: f64,
+    /// N_p, the most refinement passes (§3).
+    pub passes: usize,
+    /// Young's modulus E.
+    pub young: f64,
+    /// Poisson's ratio ν.
+    pub poisson: f64,
+    /// Time step of the quasi-static solve (eq. 1).
+    pub dt: f64,
+    pub e_min: f64,
+    pub e_max: f64,
+    /// ε_e: tolerance on an edge's length change (§2.5).
+    pub eps_e: f64,
+    /// Edge flips in remeshing (beyond the paper).
+    pub flips: bool,
+    /// The sharp-feature constraint (eq. 4).
+    pub sharp: bool,
+    pub cg_iterations: usize,
+    pub cg_tolerance: f64,
+    /// How far a vertex may move per frame, in units of ê.
+    pub max_move: f64,
+    /// Extra steps at the same `t` while inverted triangles remain.
+    pub recovery_steps: usize,
+    /// Watch topology changes (step 1 of the module doc).
+    pub watch: bool,
+    /// The domain; `None`: the surface's own.
+    pub domain: Option<Bounds>,
+}
+
+impl Default for TwinOptions {
+    fn default() -> Self {
+        TwinOptions {
+            edge: None,
+            alpha_deg: 20.0,
+            passes: 4,
+            young: 1000.0,
+            poisson: 0.3,
+            dt: 0.04,
+            e_min: 1.0,
+            e_max: 2.0,
+            eps_e: 0.1,
+            flips: true,
+            sharp: false,
+            cg_iterations: 100,
+            cg_tolerance: 1e-4,
+            max_move: 4.0,
+            recovery_steps: 3,
+            watch: true,
+            domain: None,
+        }
+    }
+}
+
+/// Milliseconds per part of a frame.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct FrameTimings {
+    pub watch: f64,
+    pub mechanical: f64,
+    pub geometric: f64,
+    pub total: f64,
+}
+
+/// What one [`Tracker::advance`] did (one entry of `stats.json`).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct FrameReport {
+    pub t: f64,
+    pub mechanical_triangles: usize,
+    pub mechanical_vertices: usize,
+    pub geometric_triangles: usize,
+    pub geometric_vertices: usize,
+    pub splits: usize,
+    pub collapses: usize,
+    pub flips: usize,
+    pub geometric_splits: usize,
+    /// Triangles found inverted after this frame's first step.
+    pub inverted_found: usize,
+    /// Of those, the ones the recovery steps turned back.
+    pub inverted_repaired: usize,
+    /// Inverted triangles left at the end of the frame.
+    pub inverted_left: usize,
+    pub cg_iterations: usize,
+    /// Share of mechanical triangles with aspect ratio > 0.8.
+    pub aspect_good: f64,
+    /// The topology was proved unchanged since the last frame.
+    pub topology_certified: bool,
+    /// Why the mechanical mesh was rebuilt by the robust mesher this
+    /// frame, if it was.
+    pub reinitialized: Option<String>,
+    pub components: usize,
+    pub genus: Vec<Option<i64>>,
+    pub ms: FrameTimings,
+}
+
+/// The stepper: see the module doc.
+pub struct Tracker<'s> {
+    surface: &'s Surface,
+    opts: TwinOptions,
+    domain: Bounds,
+    edge: f64,
+    level: u8,
+    stiff: Stiffness,
+    mesh: DynMesh,
+    inverted: Vec<bool>,
+    prev_len: HashMap<EdgeKey, f64>,
+    frozen: HashSet<EdgeKey>,
+    topo: (usize, Vec<Option<i64>>),
+    t: f64,
+    geometric: Mesh,
+}
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+fn usage(m: String) -> Error {
+    Error::Usage(m)
+}
+
+impl<'s> Tracker<'s> {
+    /// Meshes `surface` at `t0` (see the module doc).
+    pub fn new(surface: &'s Surface, t0: f64, opts: &TwinOptions) -> Result<Tracker<'s>, Error> {
+        let domain = opts.domain.unwrap_or(surface.domain);
+        let side = (0..3)
+            .map(|k| domain.hi[k] - domain.lo[k])
+            .fold(0.0, f64::max);
+        let edge = opts.edge.unwrap_or(side / 40.0);
+        let positive = |x: f64| x.is_finite() && x > 0.0;
+        if !positive(edge) {
+            return Err(usage(format!("--edge must be positive, got {edge}")));
+        }
+        if !t0.is_finite() {
+            return Err(usage(format!("time must be finite, got {t0}")));
+        }
+        if !(positive(opts.e_min)
+            && opts.e_max > 2.0 * opts.e_min - 1e-12
+            && opts.e_max.is_finite())
+        {
+            return Err(usage(format!(
+                "need 0 < e_min and e_max ≥ 2·e_min (a split must not call for a collapse), got {} and {}",
+                opts.e_min, opts.e_max
+            )));
+        }
+        if !(positive(opts.young) && opts.poisson > -1.0 && opts.poisson < 0.5) {
+            return Err(usage(format!(
+                "need E > 0 and −1 < ν < 0.5, got {} and {}",
+                opts.young, opts.poisson
+            )));
+        }
+        if !(positive(opts.dt) && opts.eps_e >= 0.0 && positive(opts.max_move)) {
+            return Err(usage("dt, max_move must be positive, eps_e ≥ 0".into()));
+        }
+        if !opts.alpha_deg.is_finite() {
+            return Err(usage("--alpha must be finite".into()));
+        }
+        // Octree cells of about 1.5 ê: marching-cubes edges then span
+        // roughly [0, 2] ê, the band the remeshing keeps.
+        let level = (side / (1.5 * edge)).log2().ceil().clamp(2.0, 10.0) as u8;
+        let mut tracker = Tracker {
+            surface,
+            opts: *opts,
+            domain,
+            edge,
+            level,
+            stiff: Stiffness::new(opts.young, opts.poisson, edge),
+            mesh: DynMesh::default(),
+            inverted: Vec::new(),
+            prev_len: HashMap::new(),
+            frozen: HashSet::new(),
+            topo: (0, Vec::new()),
+            t: t0,
+            geometric: Mesh::default(),
+        };
+        let (mesh, topo) = tracker.robust(t0, 0);
+        tracker.reinit(&mesh, topo, t0);
+        tracker.geometric = tracker.mesh.to_mesh();
+        Ok(tracker)
+    }
+
+    /// The time of the last frame.
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+
+    /// The target edge length ê.
+    pub fn edge(&self) -> f64 {
+        self.edge
+    }
+
+    /// The mechanical mesh (normals: unit gradients).
+    pub fn mechanical(&self) -> Mesh {
+        self.mesh.to_mesh()
+    }
+
+    /// The geometric mesh of the last frame.
+    pub fn geometric(&self) -> &Mesh {
+        &self.geometric
+    }
+
+    /// Triangles of the mechanical mesh that are inverted now.
+    pub fn inverted_count(&self) -> usize {
+        self.mesh
+            .live_tris()
+            .filter(|&(_, t)| fem::inverted(&self.mesh, t))
+            .count()
+    }
+
+    /// The edges modified by the last remeshing (frozen for the next one).
+    pub fn frozen_edges(&self) -> Vec<(DVec3, DVec3)> {
+        self.frozen
+            .iter()
+            .filter(|(a, b)| self.mesh.vert_alive[*a as usize] && self.mesh.vert_alive[*b as usize])
+            .map(|&(a, b)| (self.mesh.pos[a as usize], self.mesh.pos[b as usize]))
+            .collect()
+    }
+
+    /// The robust mesh at `t`, `extra` levels finer than the tracker's.
+    fn robust(&self, t: f64, extra: u8) -> (Mesh, topology::Topology) {
+        let level = (self.level + extra).min(crate::octree::MAX_LEVEL);
+        let opts = MeshOptions {
+            octree: OctreeOptions {
+                max_level: level,
+                min_level: level,
+                t,
+                ..OctreeOptions::default()
+            },
+            smooth: 0,
+            domain: Some(self.domain),
+        };
+        let (mesh, report) = mesher::mesh(self.surface, &opts, &|_| {});
+        (mesh, report.topology)
+    }
+
+    /// Starts the mechanical mesh afresh from a robust mesh at time `t`.
+    /// Marching cubes leaves many edges far shorter than ê; elements that
+    /// small are strongly compressed, the state §2.6.1 warns leads to
+    /// inversions, so the short edges are collapsed (and long ones split)
+    /// by remeshing sweeps before the first mechanical step.
+    fn reinit(&mut self, mesh: &Mesh, topo: topology::Topology, t: f64) {
+        self.mesh = DynMesh::from_mesh(mesh);
+        self.inverted = vec![false; self.mesh.tris.len()];
+        self.prev_len.clear();
+        self.frozen.clear();
+        self.topo = topo_key(&topo);
+        let field = SurfaceField {
+            surface: self.surface,
+            t,
+        };
+        let params = self.remesh_params(8);
+        for _ in 0..8 {
+            let mut scratch = HashSet::new();
+            let c = remesh::remesh(
+                &mut self.mesh,
+                &field,
+                &params,
+                &HashMap::new(),
+                &HashSet::new(),
+                &mut self.inverted,
+                &mut scratch,
+            );
+            if c == remesh::Counts::default() {
+                break;
+            }
+        }
+        self.compact();
+    }
+
+    fn remesh_params(&self, sweeps: usize) -> remesh::Params {
+        remesh::Params {
+            edge: self.edge,
+            e_min: self.opts.e_min,
+            e_max: self.opts.e_max,
+            eps_e: self.opts.eps_e,
+            flips: self.opts.flips,
+            sweeps,
+        }
+    }
+
+    /// Advances to time `t`: one frame (see the module doc).
+    pub fn advance(&mut self, t: f64) -> Result<FrameReport, Error> {
+        if !t.is_finite() {
+            return Err(usage(format!("time must be finite, got {t}")));
+        }
+        let start = Instant::now();
+        let mut rep = FrameReport {
+            t,
+            topology_certified: true,
+            ..FrameReport::default()
+        };
+
+        // 1. Topology watch.
+        let t0 = Instant::now();
+        if self.opts.watch && t != self.t {
+            let interval = Interval {
+                lo: self.t.min(t),
+                hi: self.t.max(t),
+            };
+            let cert = watch::certify(self.surface, self.domain, interval, self.level + 1, 50_000);
+            if cert.verdict == watch::Verdict::Unproved {
+                rep.topology_certified = false;
+                let (mesh, topo) = self.robust(t, 1);
+                let now = topo_key(&topo);
+                if now != self.topo {
+                    rep.reinitialized = Some(format!(
+                        "topology changed: {} component(s), genus {:?} → {} component(s), genus {:?}",
+                        self.topo.0, self.topo.1, now.0, now.1
+                    ));
+                    // Restart at the tracker's own resolution when that
+                    // mesh sees the new topology too (fewer, larger
+                    // triangles to start from).
+                    let (coarse, ctopo) = self.robust(t, 0);
+                    if topo_key(&ctopo) == now {
+                        self.reinit(&coarse, ctopo, t);
+                    } else {
+                        self.reinit(&mesh, topo, t);
+                    }
+                }
+            }
+        }
+        rep.ms.watch = ms(t0);
+
+        // 2–5. Mechanical mesh.
+        let t0 = Instant::now();
+        let field = SurfaceField {
+            surface: self.surface,
+            t,
+        };
+        let mut new_frozen = HashSet::new();
+        let params = self.remesh_params(3);
+        let counts = remesh::remesh(
+            &mut self.mesh,
+            &field,
+            &params,
+            &self.prev_len,
+            &self.frozen,
+            &mut self.inverted,
+            &mut new_frozen,
+        );
+        rep.splits = counts.splits;
+        rep.collapses = counts.collapses;
+        rep.flips = counts.flips;
+        let mut step = self.step(&field);
+        if step.failures > 0 {
+            let (mesh, topo) = self.robust(t, 0);
+            rep.reinitialized = Some(format!(
+                "tracking lost: {} vertices could not be projected onto the surface",
+                step.failures
+            ));
+            self.reinit(&mesh, topo, t);
+            new_frozen.clear();
+            step = self.step(&field);
+            if step.failures > 0 {
+                // Keep the robust mesh itself: it is on the surface.
+                let (mesh, topo) = self.robust(t, 0);
+                self.reinit(&mesh, topo, t);
+                step = StepResult::default();
+            }
+        }
+        rep.cg_iterations = step.cg_iterations;
+        let found = self.flag_inversions();
+        rep.inverted_found = found;
+        let mut left = found;
+        for _ in 0..self.opts.recovery_steps {
+            if left == 0 {
+                break;
+            }
+            let s = self.step(&field);
+            rep.cg_iterations += s.cg_iterations;
+            if s.failures > 0 {
+                break;
+            }
+            left = self.flag_inversions();
+        }
+        rep.inverted_left = left;
+        rep.inverted_repaired = found.saturating_sub(left);
+        self.frozen = new_frozen;
+        self.prev_len = self
+            .mesh
+            .edges()
+            .into_iter()
+            .map(|e| (e, self.mesh.length(e)))
+            .collect();
+        if self.mesh.pos.len() > 2 * self.mesh.live_vert_count() + 64 {
+            self.compact();
+        }
+        self.t = t;
+        let mech = self.mesh.to_mesh();
+        rep.ms.mechanical = ms(t0);
+
+        // 6. Geometric mesh.
+        let t0 = Instant::now();
+        let (geo, gs) = geometric::refine(&mech, &field, self.opts.alpha_deg, self.opts.passes);
+        rep.geometric_splits = gs.splits;
+        self.geometric = geo;
+        rep.ms.geometric = ms(t0);
+
+        rep.mechanical_triangles = mech.triangles.len();
+        rep.mechanical_vertices = mech.positions.len();
+        rep.geometric_triangles = self.geometric.triangles.len();
+        rep.geometric_vertices = self.geometric.positions.len();
+        rep.aspect_good = quality::aspect_good(&mech);
+        rep.components = self.topo.0;
+        rep.genus = self.topo.1.clone();
+        rep.ms.total = ms(start);
+        Ok(rep)
+    }
+
+    /// Flags inverted triangles at the current gradients; returns how many.
+    fn flag_inversions(&mut self) -> usize {
+        self.inverted.resize(self.mesh.tris.len(), false);
+        let mut n = 0;
+        for (i, t) in self.mesh.tris.iter().enumerate() {
+            let inv = self.mesh.tri_alive[i] && fem::inverted(&self.mesh, *t);
+            self.inverted[i] = inv;
+            n += inv as usize;
+        }
+        n
+    }
+
+    fn compact(&mut self) {
+        let alive_tris: Vec<bool> = self
+            .mesh
+            .tris
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| self.mesh.tri_alive[*i])
+            .map(|(i, _)| self.inverted.get(i).copied().unwrap_or(false))
+            .collect();
+        let remap = self.mesh.compact();
+        self.inverted = alive_tris;
+        let map = |e: EdgeKey| {
+            let (a, b) = (remap[e.0 as usize], remap[e.1 as usize]);
+            (a != u32::MAX && b != u32::MAX).then(|| key(a, b))
+        };
+        self.prev_len = self
+            .prev_len
+            .iter()
+            .filter_map(|(&e, &l)| map(e).map(|e| (e, l)))
+            .collect();
+        self.frozen = self.frozen.iter().filter_map(|&e| map(e)).collect();
+    }
+
+    /// One quasi-static step at the field's time, then projection.
+    fn step(&mut self, field: &SurfaceField) -> StepResult {
+        let n = self.mesh.pos.len();
+        // Gradients at the current positions.
+        let grads: Vec<DVec3> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                if self.mesh.vert_alive[i] {
+                    field.gradient(self.mesh.pos[i]).1
+                } else {
+                    DVec3::ZERO
+                }
+            })
+            .collect();
+        self.mesh.grad = grads;
+        self.flag_inversions();
+        let frames = Frames::new(&self.mesh, &self.stiff, &self.inverted);
+        let normals: Vec<DVec3> = self
+            .mesh
+            .grad
+            .iter()
+            .map(|g| g.normalize_or_zero())
+            .collect();
+        let f = frames.forces(&self.stiff, n);
+        let b: Vec<DVec3> = f.iter().map(|f| *f * self.opts.dt).collect();
+        let (dx, iters) = self.solve(&frames, &normals, &b);
+
+        // Projection (eq. 3), in parallel.
+        let reach = self.opts.max_move * self.edge;
+        let moved: Vec<Option<project::OnSurface>> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                if !self.mesh.vert_alive[i] {
+                    return None;
+                }
+                let p = self.mesh.pos[i] + dx[i];
+                project::newton(field, p, reach, self.edge)
+            })
+            .collect();
+        let mut failures = 0;
+        for (i, m) in moved.into_iter().enumerate() {
+            if !self.mesh.vert_alive[i] {
+                continue;
+            }
+            match m {
+                Some(s) => {
+                    self.mesh.pos[i] = s.pos;
+                    self.mesh.grad[i] = s.grad;
+                }
+                None => failures += 1,
+            }
+        }
+        StepResult {
+            cg_iterations: iters,
+            failures,
+        }
+    }
+
+    /// Filtered conjugate gradients for `(I + dt Σ R K Rᵀ) Δx = b` with
+    /// `Δx` kept in the vertices' tangent planes (Baraff & Witkin 1998).
+    fn solve(&self, frames: &Frames, normals: &[DVec3], b: &[DVec3]) -> (Vec<DVec3>, usize) {
+        let n = b.len();
+        let filter = |v: &mut [DVec3]| {
+            for (x, nrm) in v.iter_mut().zip(normals) {
+                *x -= *nrm * x.dot(*nrm);
+            }
+        };
+        let dot = |a: &[DVec3], b: &[DVec3]| a.iter().zip(b).map(|(x, y)| x.dot(*y)).sum::<f64>();
+        let dt = self.opts.dt;
+        let apply = |p: &[DVec3], out: &mut Vec<DVec3>| {
+            frames.apply(&self.stiff, p, out);
+            for (o, x) in out.iter_mut().zip(p) {
+                *o = *x + *o * dt;
+            }
+            filter(out);
+        };
+        let mut x = vec![DVec3::ZERO; n];
+        let mut r = b.to_vec();
+        filter(&mut r);
+        let b_norm = dot(&r, &r).sqrt();
+        if b_norm == 0.0 {
+            return (x, 0);
+        }
+        let mut p = r.clone();
+        let mut rr = dot(&r, &r);
+        let mut ap = vec![DVec3::ZERO; n];
+        let mut iters = 0;
+        for _ in 0..self.opts.cg_iterations {
+            iters += 1;
+            apply(&p, &mut ap);
+            let pap = dot(&p, &ap);
+            if pap <= 0.0 || !pap.is_finite() {
+                break;
+            }
+            let alpha = rr / pap;
+            for i in 0..n {
+                x[i] += p[i] * alpha;
+                r[i] -= ap[i] * alpha;
+            }
+            if self.opts.sharp {
+                // Eq. 4 on the iterate, then the residual of the moved
+                // iterate, and a restart along it.
+                self.sharp_constraint(&mut x, normals);
+                apply(&x, &mut ap);
+                for i in 0..n {
+                    r[i] = b[i] - ap[i];
+                }
+                filter(&mut r);
+                let rr_new = dot(&r, &r);
+                if rr_new.sqrt() < self.opts.cg_tolerance * b_norm {
+                    break;
+                }
+                p.copy_from_slice(&r);
+                rr = rr_new;
+                continue;
+            }
+            let rr_new = dot(&r, &r);
+            if rr_new.sqrt() < self.opts.cg_tolerance * b_norm {
+                break;
+            }
+            let beta = rr_new / rr;
+            for i in 0..n {
+                p[i] = r[i] + p[i] * beta;
+            }
+            rr = rr_new;
+        }
+        (x, iters)
+    }
+
+    /// The sharp-feature constraint (eq. 4): each vertex moves along its
+    /// normal to the area-weighted mean height of its triangles' centroids,
+    /// so that triangle normals align with ∇f.
+    fn sharp_constraint(&self, dx: &mut [DVec3], normals: &[DVec3]) {
+        let m = &self.mesh;
+        let p: Vec<DVec3> = m.pos.iter().zip(dx.iter()).map(|(a, b)| *a + *b).collect();
+        let shift: Vec<f64> = (0..p.len())
+            .map(|i| {
+                if !m.vert_alive[i] {
+                    return 0.0;
+                }
+                let (mut num, mut den) = (0.0, 0.0);
+                for &ti in &m.star[i] {
+                    let q = m.tris[ti as usize].map(|v| p[v as usize]);
+                    let area = 0.5 * (q[1] - q[0]).cross(q[2] - q[0]).length();
+                    let c = (q[0] + q[1] + q[2]) / 3.0;
+                    num += area * (c - p[i]).dot(normals[i]);
+                    den += area;
+                }
+                if den > 0.0 { num / den } else { 0.0 }
+            })
+            .collect();
+        for ((d, s), nrm) in dx.iter_mut().zip(shift).zip(normals) {
+            *d += *nrm * s;
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct StepResult {
+    cg_iterations: usize,
+    failures: usize,
+}
+
+/// Components and the sorted genera: what "the same topology" compares.
+fn topo_key(t: &topology::Topology) -> (usize, Vec<Option<i64>>) {
+    let mut g = t.genus.clone();
+    g.sort();
+    (t.components, g)
+}

@@ -1,0 +1,134 @@
+//! Newton projection onto `f(·, t) = 0` along the gradient (Bouthors &
+//! Nesme §2.4, eq. 3), with a safeguard.
+//!
+//! # Contract
+//!
+//! [`newton`] moves `p₀` by Newton steps `p ← p − f(p) ∇f(p)/‖∇f(p)‖²`.
+//! Each step is limited to `max_step`; the walk gives up (returns `None`)
+//! when it would leave the ball of radius `max_dist` around `p₀`, when `f`
+//! or `∇f` is not finite, or when a step fails to reduce `|f|` even after
+//! halving. As soon as a step crosses the surface (the sign of `f`
+//! changes), the zero is bracketed by that one short step and refined by
+//! bisection ([`crate::mesh::roots::bisect`]), so the point lands on the
+//! sheet it was walking towards and never jumps to another one. The result
+//! is on the surface to machine precision: either a bisection bracket of
+//! one ulp, or a Newton step shorter than a few ulps of the coordinates.
+
+use glam::DVec3;
+
+use crate::mesh::roots::{Field, bisect};
+
+/// A point on the surface and ∇f there.
+#[derive(Clone, Copy, Debug)]
+pub struct OnSurface {
+    pub pos: DVec3,
+    pub grad: DVec3,
+}
+
+/// See the module doc.
+pub fn newton(f: &dyn Field, p0: DVec3, max_dist: f64, max_step: f64) -> Option<OnSurface> {
+    let mut p = p0;
+    let (mut fp, mut g) = f.gradient(p);
+    for _ in 0..64 {
+        if !fp.is_finite() || !g.is_finite() {
+            return None;
+        }
+        if fp == 0.0 {
+            return Some(OnSurface { pos: p, grad: g });
+        }
+        let g2 = g.length_squared();
+        if g2 == 0.0 {
+            return None;
+        }
+        let mut step = g * (-fp / g2);
+        let len = step.length();
+        if len > max_step {
+            step *= max_step / len;
+        }
+        let tiny = 4.0 * f64::EPSILON * p.abs().max_element().max(f64::MIN_POSITIVE);
+        let mut halvings = 0;
+        loop {
+            let q = p + step;
+            if q.distance(p0) > max_dist {
+                return None;
+            }
+            let fq = f.value(q);
+            if fq.is_nan() {
+                return None;
+            }
+            if fq == 0.0 {
+                let (_, gq) = f.gradient(q);
+                return Some(OnSurface { pos: q, grad: gq });
+            }
+            if (fq < 0.0) != (fp < 0.0) {
+                let r = bisect(f, p, q, fp, fq);
+                let (_, gr) = f.gradient(r);
+                return Some(OnSurface { pos: r, grad: gr });
+            }
+            if step.length() <= tiny {
+                let (_, gq) = f.gradient(q);
+                return Some(OnSurface { pos: q, grad: gq });
+            }
+            if fq.abs() < fp.abs() {
+                p = q;
+                break;
+            }
+            halvings += 1;
+            if halvings > 30 {
+                return None;
+            }
+            step *= 0.5;
+        }
+        (fp, g) = f.gradient(p);
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Spheres;
+    impl Field for Spheres {
+        // Two unit spheres at x = ±1.5.
+        fn value(&self, p: DVec3) -> f64 {
+            let a = (p - DVec3::X * 1.5).length_squared() - 1.0;
+            let b = (p + DVec3::X * 1.5).length_squared() - 1.0;
+            a.min(b)
+        }
+        fn gradient(&self, p: DVec3) -> (f64, DVec3) {
+            let a = (p - DVec3::X * 1.5).length_squared() - 1.0;
+            let b = (p + DVec3::X * 1.5).length_squared() - 1.0;
+            if a <= b {
+                (a, 2.0 * (p - DVec3::X * 1.5))
+            } else {
+                (b, 2.0 * (p + DVec3::X * 1.5))
+            }
+        }
+    }
+
+    #[test]
+    fn lands_on_the_surface_and_stays_within_reach() {
+        let f = Spheres;
+        for p in [
+            DVec3::new(1.5, 0.3, 0.1),
+            DVec3::new(3.0, 0.5, -0.2),
+            DVec3::new(-1.5, 0.0, 2.5),
+        ] {
+            let s = newton(&f, p, 10.0, 0.5).unwrap();
+            assert!(f.value(s.pos).abs() < 1e-14, "{p} → {}", s.pos);
+        }
+        // Too far: refused.
+        assert!(newton(&f, DVec3::new(1.5, 0.0, 4.0), 1.0, 0.5).is_none());
+    }
+
+    #[test]
+    fn never_jumps_to_the_other_sphere() {
+        // From near the gap, the walk ends on the sphere whose side the
+        // point is on.
+        let f = Spheres;
+        let p = DVec3::new(0.2, 0.0, 0.0);
+        let s = newton(&f, p, 3.0, 0.1).unwrap();
+        assert!(s.pos.x > 0.0, "{}", s.pos);
+    }
+}
