@@ -234,3 +234,117 @@ fn mesh_errors_write_no_file() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("format"));
 }
+
+#[test]
+fn animate_writes_both_meshes_per_frame_and_stats() {
+    let dir = std::env::temp_dir().join(format!("isoc-anim-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let src = concat!(env!("CARGO_MANIFEST_DIR"), "/corpus/pulse.iso");
+    let o = isoc(&[
+        "animate",
+        src,
+        "--t0",
+        "0",
+        "--t1",
+        "0.2",
+        "--frames",
+        "3",
+        "--edge",
+        "0.2",
+        "--alpha",
+        "10",
+        "--passes",
+        "2",
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).is_empty(),
+        "stdout must stay empty without --json"
+    );
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("stats.json")).unwrap()).unwrap();
+    let frames = stats.as_array().unwrap();
+    assert_eq!(frames.len(), 3);
+    for (k, f) in frames.iter().enumerate() {
+        let t = f["t"].as_f64().unwrap();
+        assert!((t - 0.1 * k as f64).abs() < 1e-12);
+        for key in [
+            "mechanical_triangles",
+            "geometric_triangles",
+            "splits",
+            "collapses",
+            "inverted_found",
+            "inverted_repaired",
+        ] {
+            assert!(f[key].is_u64(), "{key} in {f}");
+        }
+        assert!(f["ms"]["total"].as_f64().unwrap() >= 0.0);
+        for kind in ["geometric", "mechanical"] {
+            let path = dir.join(format!("{kind}_{k:04}.ply"));
+            let bytes = std::fs::read(&path).unwrap();
+            let head = String::from_utf8_lossy(&bytes[..400.min(bytes.len())]).to_string();
+            let tris = f[format!("{kind}_triangles")].as_u64().unwrap();
+            assert!(
+                head.contains(&format!("element face {tris}")),
+                "{path:?}: {head}"
+            );
+        }
+    }
+    // No temporary files are left behind.
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
+    assert_eq!(names.len(), 7, "{names:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn animate_errors_write_nothing() {
+    let dir = std::env::temp_dir().join(format!("isoc-anim-bad-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let bad = temp_file("bad_anim.iso", b"domain [-1, 1]^3;\nsurface x^2 + * t;\n");
+    let o = isoc(&[
+        "animate",
+        bad.to_str().unwrap(),
+        "--t0",
+        "0",
+        "--t1",
+        "1",
+        "--frames",
+        "2",
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("bad_anim.iso:2:"), "{}", stderr(&o));
+    assert!(stderr(&o).contains('^'));
+    assert!(!dir.exists());
+    let good = concat!(env!("CARGO_MANIFEST_DIR"), "/corpus/pulse.iso");
+    for args in [
+        vec!["--frames", "0"],
+        vec!["--frames", "2", "--edge", "-1"],
+        vec!["--frames", "2", "--edge", "0"],
+        vec!["--frames", "2", "--e-min", "1", "--e-max", "1.5"],
+        vec!["--frames", "2", "--poisson", "0.5"],
+    ] {
+        let mut all = vec![
+            "animate",
+            good,
+            "--t0",
+            "0",
+            "--t1",
+            "1",
+            "-o",
+            dir.to_str().unwrap(),
+        ];
+        all.extend(args.iter());
+        let o = isoc(&all);
+        assert_ne!(o.status.code(), Some(0), "{args:?}");
+        assert!(!stderr(&o).contains("panicked"), "{args:?}: {}", stderr(&o));
+        let files = std::fs::read_dir(&dir).map(|d| d.count()).unwrap_or(0);
+        assert_eq!(files, 0, "{args:?} left files");
+    }
+}

@@ -223,7 +223,7 @@ fn corpus_values_match_hand_written_formulas() {
         (x * x + y * y + z * z - a * k * k).powi(2)
             - b * ((z - k).powi(2) - 2.0 * x * x) * ((z + k).powi(2) - 2.0 * y * y)
     }
-    let cases: [(&str, F); 17] = [
+    let cases: [(&str, F); 21] = [
         ("torus_fig1", |x, y, z, _| {
             (1.5 - (x * x + y * y).sqrt()).powi(2) + z * z - 1.35f64.powi(2)
         }),
@@ -271,6 +271,29 @@ fn corpus_values_match_hand_written_formulas() {
         }),
         ("pulse", |x, y, z, t| {
             x * x + y * y + z * z - (1.0 + 0.5 * (2.0 * std::f64::consts::PI * t).sin()).powi(2)
+        }),
+        ("ellipsoid_spin", |x, y, z, t| {
+            let th = std::f64::consts::PI * t / 2.0;
+            let u = x * th.cos() + y * th.sin();
+            let v = -x * th.sin() + y * th.cos();
+            let a = 1.2 + 0.4 * (2.0 * std::f64::consts::PI * t).sin();
+            (u / a).powi(2) + (v / 0.6).powi(2) + (z / 0.5).powi(2) - 1.0
+        }),
+        ("blobs_pass", |x, y, z, t| {
+            let s = 0.8 * (2.0 * std::f64::consts::PI * t).sin();
+            let blob = |cx: f64, cy: f64| (-((x - cx).powi(2) + (y - cy).powi(2) + z * z)).exp();
+            0.3 - blob(-1.6, s) - blob(1.6, -s)
+        }),
+        ("blobs_merge", |x, y, z, t| {
+            let d = 1.6 - t;
+            let blob = |cx: f64| (-((x - cx).powi(2) + y * y + z * z)).exp();
+            0.3 - blob(-d) - blob(d)
+        }),
+        ("torus_twist", |x, y, z, t| {
+            let phi = t * x;
+            let v = y * phi.cos() + z * phi.sin();
+            let w = -y * phi.sin() + z * phi.cos();
+            ((x * x + v * v).sqrt() - 1.0).powi(2) + w * w - 0.35f64.powi(2)
         }),
     ];
     let files = corpus();

@@ -64,6 +64,7 @@ pub fn refine(
                 ((a, b), s.map(|s| (s.pos, s.grad)))
             })
             .collect();
+        let first_new = mesh.positions.len();
         let mut mid_of: HashMap<EdgeKey, u32> = HashMap::with_capacity(mids.len());
         for (e, s) in mids {
             if let Some((p, g)) = s {
@@ -73,19 +74,72 @@ pub fn refine(
                 mesh.ambiguous.push(false);
             }
         }
+        // Subdivide; an edge whose split would leave an inverted triangle
+        // (the midpoint projected past a neighbour on a tight bend) is
+        // unmarked and the triangles around it are redone.
+        let old = std::mem::take(&mut mesh.triangles);
+        let mut tris = Vec::with_capacity(old.len() * 2);
+        loop {
+            tris.clear();
+            let mut undo = Vec::new();
+            for &t in &old {
+                let start = tris.len();
+                subdivide(&mesh, t, &mid_of, &mut tris);
+                if tris.len() > start + 1 && tris[start..].iter().any(|&n| inverted(&mesh, n)) {
+                    for k in 0..3 {
+                        undo.push(key(t[k], t[(k + 1) % 3]));
+                    }
+                }
+            }
+            if undo.is_empty() {
+                break;
+            }
+            for e in undo {
+                mid_of.remove(&e);
+            }
+        }
+        mesh.triangles = tris;
+        // Midpoints no edge kept stay in the vertex list unused; drop them.
+        let used: std::collections::HashSet<u32> = mid_of.values().copied().collect();
+        compact_new(&mut mesh, first_new, &used);
         if mid_of.is_empty() {
             break;
         }
         stats.splits += mid_of.len();
         stats.passes += 1;
-        let old = std::mem::take(&mut mesh.triangles);
-        let mut tris = Vec::with_capacity(old.len() * 2);
-        for t in old {
-            subdivide(&mesh, t, &mid_of, &mut tris);
-        }
-        mesh.triangles = tris;
     }
     (mesh, stats)
+}
+
+/// `true` when `t` faces against the normals at all three corners (the
+/// inversion test of [`super::fem::inverted`]).
+fn inverted(mesh: &Mesh, t: [u32; 3]) -> bool {
+    let n = mesh.face_normal(t);
+    t.iter().all(|&v| n.dot(mesh.normals[v as usize]) < 0.0)
+}
+
+/// Removes the vertices from `first` on that are not in `used`,
+/// renumbering the later ones in the triangles.
+fn compact_new(mesh: &mut Mesh, first: usize, used: &std::collections::HashSet<u32>) {
+    let mut remap: Vec<u32> = (0..mesh.positions.len() as u32).collect();
+    let mut w = first;
+    for r in first..mesh.positions.len() {
+        if used.contains(&(r as u32)) {
+            mesh.positions[w] = mesh.positions[r];
+            mesh.normals[w] = mesh.normals[r];
+            mesh.ambiguous[w] = mesh.ambiguous[r];
+            remap[r] = w as u32;
+            w += 1;
+        }
+    }
+    mesh.positions.truncate(w);
+    mesh.normals.truncate(w);
+    mesh.ambiguous.truncate(w);
+    for t in &mut mesh.triangles {
+        for v in t.iter_mut() {
+            *v = remap[*v as usize];
+        }
+    }
 }
 
 /// The edges to refine in this pass (sorted, each once).

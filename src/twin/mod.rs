@@ -17,19 +17,21 @@
 //!    components or genera differ from the mechanical mesh's, the
 //!    mechanical mesh is **re-initialised** from it (beyond the paper,
 //!    whose §5 leaves topology changes open);
-//! 2. **remeshes** ([`remesh`], §2.5): splits, collapses, flips;
-//! 3. takes one **quasi-static step** (§2.2, eq. 1): `(I − dt ∂f/∂x) Δx =
+//! 2. takes one **quasi-static step** (§2.2, eq. 1): `(I − dt ∂f/∂x) Δx =
 //!    dt f(x)` with co-rotational elements ([`fem`], eq. 2), solved by
 //!    conjugate gradients whose residual and iterates are filtered onto
 //!    each vertex's tangent plane (Baraff & Witkin 1998), optionally with
 //!    the sharp-feature constraint (eq. 4) at each iteration;
-//! 4. **projects** every vertex onto `f(·, t) = 0` ([`project`], eq. 3,
+//! 3. **projects** every vertex onto `f(·, t) = 0` ([`project`], eq. 3,
 //!    safeguarded); a vertex that cannot be projected within reach means
 //!    the mesh lost the surface, and the mechanical mesh is re-initialised
 //!    from the robust mesher;
-//! 5. **detects inversions** (§2.6) and, while some remain, takes up to
+//! 4. **detects inversions** (§2.6) and, while some remain, takes up to
 //!    `recovery_steps` further steps at the same `t`, in which inverted
 //!    elements get the modified displacements of §2.6.2;
+//! 5. **remeshes** ([`remesh`], §2.5): splits, collapses, flips — last,
+//!    so that the meshes of a frame have their edges in `[e_min, e_max]·ê`
+//!    (it is the paper's "before the next quasi-static step");
 //! 6. **rebuilds the geometric mesh** ([`geometric`], §3).
 //!
 //! Every vertex of both meshes is on the surface to machine precision;
@@ -173,6 +175,8 @@ pub struct Tracker<'s> {
     inverted: Vec<bool>,
     prev_len: HashMap<EdgeKey, f64>,
     frozen: HashSet<EdgeKey>,
+    /// Edges left outside the band by the last remeshing, and why.
+    held: HashMap<EdgeKey, remesh::Held>,
     topo: (usize, Vec<Option<i64>>),
     t: f64,
     geometric: Mesh,
@@ -236,6 +240,7 @@ impl<'s> Tracker<'s> {
             inverted: Vec::new(),
             prev_len: HashMap::new(),
             frozen: HashSet::new(),
+            held: HashMap::new(),
             topo: (0, Vec::new()),
             t: t0,
             geometric: Mesh::default(),
@@ -274,12 +279,16 @@ impl<'s> Tracker<'s> {
             .count()
     }
 
-    /// The edges modified by the last remeshing (frozen for the next one).
-    pub fn frozen_edges(&self) -> Vec<(DVec3, DVec3)> {
-        self.frozen
-            .iter()
-            .filter(|(a, b)| self.mesh.vert_alive[*a as usize] && self.mesh.vert_alive[*b as usize])
-            .map(|&(a, b)| (self.mesh.pos[a as usize], self.mesh.pos[b as usize]))
+    /// The edges the last remeshing left outside `[e_min, e_max]·ê`, as
+    /// end positions, with the rule that kept each (see [`remesh::Held`]).
+    pub fn held_edges(&self) -> Vec<(DVec3, DVec3, remesh::Held)> {
+        let alive = |v: u32| self.mesh.vert_alive[v as usize];
+        let frozen = self.frozen.iter().map(|&e| (e, remesh::Held::Frozen));
+        let held = self.held.iter().map(|(&e, &h)| (e, h));
+        frozen
+            .chain(held.filter(|(e, _)| !self.frozen.contains(e)))
+            .filter(|((a, b), _)| alive(*a) && alive(*b))
+            .map(|((a, b), h)| (self.mesh.pos[a as usize], self.mesh.pos[b as usize], h))
             .collect()
     }
 
@@ -310,6 +319,7 @@ impl<'s> Tracker<'s> {
         self.inverted = vec![false; self.mesh.tris.len()];
         self.prev_len.clear();
         self.frozen.clear();
+        self.held.clear();
         self.topo = topo_key(&topo);
         let field = SurfaceField {
             surface: self.surface,
@@ -318,6 +328,7 @@ impl<'s> Tracker<'s> {
         let params = self.remesh_params(8);
         for _ in 0..8 {
             let mut scratch = HashSet::new();
+            let mut held = HashMap::new();
             let c = remesh::remesh(
                 &mut self.mesh,
                 &field,
@@ -326,6 +337,7 @@ impl<'s> Tracker<'s> {
                 &HashSet::new(),
                 &mut self.inverted,
                 &mut scratch,
+                &mut held,
             );
             if c == remesh::Counts::default() {
                 break;
@@ -394,20 +406,6 @@ impl<'s> Tracker<'s> {
             surface: self.surface,
             t,
         };
-        let mut new_frozen = HashSet::new();
-        let params = self.remesh_params(3);
-        let counts = remesh::remesh(
-            &mut self.mesh,
-            &field,
-            &params,
-            &self.prev_len,
-            &self.frozen,
-            &mut self.inverted,
-            &mut new_frozen,
-        );
-        rep.splits = counts.splits;
-        rep.collapses = counts.collapses;
-        rep.flips = counts.flips;
         let mut step = self.step(&field);
         if step.failures > 0 {
             let (mesh, topo) = self.robust(t, 0);
@@ -416,7 +414,6 @@ impl<'s> Tracker<'s> {
                 step.failures
             ));
             self.reinit(&mesh, topo, t);
-            new_frozen.clear();
             step = self.step(&field);
             if step.failures > 0 {
                 // Keep the robust mesh itself: it is on the surface.
@@ -442,6 +439,25 @@ impl<'s> Tracker<'s> {
         }
         rep.inverted_left = left;
         rep.inverted_repaired = found.saturating_sub(left);
+        // Remeshing closes the frame, so that the meshes handed out have
+        // their edges in [e_min, e_max]·ê; for the next frame's step it is
+        // the paper's "before the quasi-static integration step" (§2.5).
+        let mut new_frozen = HashSet::new();
+        let params = self.remesh_params(4);
+        let counts = remesh::remesh(
+            &mut self.mesh,
+            &field,
+            &params,
+            &self.prev_len,
+            &self.frozen,
+            &mut self.inverted,
+            &mut new_frozen,
+            &mut self.held,
+        );
+        rep.splits = counts.splits;
+        rep.collapses = counts.collapses;
+        rep.flips = counts.flips;
+        rep.inverted_left = self.flag_inversions();
         self.frozen = new_frozen;
         self.prev_len = self
             .mesh
@@ -507,6 +523,11 @@ impl<'s> Tracker<'s> {
             .filter_map(|(&e, &l)| map(e).map(|e| (e, l)))
             .collect();
         self.frozen = self.frozen.iter().filter_map(|&e| map(e)).collect();
+        self.held = self
+            .held
+            .iter()
+            .filter_map(|(&e, &h)| map(e).map(|e| (e, h)))
+            .collect();
     }
 
     /// One quasi-static step at the field's time, then projection.

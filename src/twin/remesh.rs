@@ -27,8 +27,11 @@
 //! "still shrinking" (Fig. 2's caption: *has not been compressed / has not
 //! stretched since the last time step*); the tolerance ε_e keeps edges at
 //! rest eligible. Every edge an operation creates or changes is *frozen*:
-//! it is left alone during the next frame's remeshing (§2.5), and no
-//! vertex is touched twice in one sweep.
+//! it is neither split nor collapsed during the next frame's remeshing
+//! (§2.5); flips may still act on it (Delaunay flips cannot oscillate:
+//! each one strictly improves the quad), so that the triangles a split
+//! leaves behind are repaired at once. No vertex is touched twice in one
+//! sweep.
 
 use std::collections::{HashMap, HashSet};
 
@@ -59,9 +62,31 @@ pub struct Counts {
     pub flips: usize,
 }
 
+/// Why an edge outside `[e_min, e_max]·ê` was left as it is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Held {
+    /// Modified by the last frame or this one (§2.5).
+    Frozen,
+    /// Too long but shrinking, or too short but growing (§2.5).
+    Trend,
+    /// A split next to an inverted triangle (§2.6.1, case 4).
+    Inverted,
+    /// A collapse that would break the link condition (Fig. 3).
+    Topology,
+    /// A collapse that would turn a triangle over, leave a sliver, or make
+    /// an edge longer than `e_max·ê`.
+    Shape,
+    /// The new point could not be projected onto the surface.
+    Projection,
+    /// A neighbour was modified in every sweep.
+    Busy,
+}
+
 /// One remeshing pass; see the module doc. `frozen` are the edges the
 /// last frame modified; the edges modified now are added to `new_frozen`.
 /// `inverted[i]` flags triangle `i` (triangles created here are not).
+/// `held` receives, for the edges still outside the band that an
+/// operation was refused, why (the last refusal).
 pub fn remesh(
     mesh: &mut DynMesh,
     field: &dyn Field,
@@ -70,8 +95,10 @@ pub fn remesh(
     frozen: &HashSet<EdgeKey>,
     inverted: &mut Vec<bool>,
     new_frozen: &mut HashSet<EdgeKey>,
+    held: &mut HashMap<EdgeKey, Held>,
 ) -> Counts {
     let mut counts = Counts::default();
+    held.clear();
     for _ in 0..p.sweeps {
         let before = counts;
         let mut dirty = vec![false; mesh.pos.len()];
@@ -93,21 +120,29 @@ pub fn remesh(
                 break;
             }
             let (a, b) = e;
-            if dirty[a as usize]
-                || dirty[b as usize]
-                || is_frozen(&e, new_frozen)
-                || delta(mesh, e) <= -p.eps_e * p.edge
-            {
+            if dirty[a as usize] || dirty[b as usize] {
+                held.insert(e, Held::Busy);
+                continue;
+            }
+            if is_frozen(&e, new_frozen) {
+                held.insert(e, Held::Frozen);
+                continue;
+            }
+            if delta(mesh, e) <= -p.eps_e * p.edge {
+                held.insert(e, Held::Trend);
                 continue;
             }
             let tris = mesh.edge_tris(a, b);
             if tris.len() != 2 || tris.iter().any(|(i, _)| inverted[*i as usize]) {
+                held.insert(e, Held::Inverted);
                 continue;
             }
             let mid = (mesh.pos[a as usize] + mesh.pos[b as usize]) * 0.5;
             let Some(s) = newton(field, mid, 0.5 * len, 0.25 * len) else {
+                held.insert(e, Held::Projection);
                 continue;
             };
+            held.remove(&e);
             let m = mesh.split(a, b, s.pos, s.grad);
             inverted.resize(mesh.tris.len(), false);
             dirty.resize(mesh.pos.len(), false);
@@ -130,19 +165,32 @@ pub fn remesh(
                 || dirty[b as usize]
                 || !mesh.vert_alive[a as usize]
                 || !mesh.vert_alive[b as usize]
-                || is_frozen(&e, new_frozen)
-                || delta(mesh, e) >= p.eps_e * p.edge
-                || !mesh.can_collapse_topologically(a, b)
             {
+                held.insert(e, Held::Busy);
+                continue;
+            }
+            if is_frozen(&e, new_frozen) {
+                held.insert(e, Held::Frozen);
+                continue;
+            }
+            if delta(mesh, e) >= p.eps_e * p.edge {
+                held.insert(e, Held::Trend);
+                continue;
+            }
+            if !mesh.can_collapse_topologically(a, b) {
+                held.insert(e, Held::Topology);
                 continue;
             }
             let mid = (mesh.pos[a as usize] + mesh.pos[b as usize]) * 0.5;
             let Some(s) = newton(field, mid, p.edge, 0.25 * p.edge) else {
+                held.insert(e, Held::Projection);
                 continue;
             };
             if !collapse_keeps_shape(mesh, a, b, s.pos, s.grad, p.e_max * p.edge) {
+                held.insert(e, Held::Shape);
                 continue;
             }
+            held.remove(&e);
             let around: Vec<u32> = mesh
                 .neighbours(a)
                 .into_iter()
@@ -164,7 +212,7 @@ pub fn remesh(
         if p.flips {
             for e in mesh.edges() {
                 let (a, b) = e;
-                if dirty[a as usize] || dirty[b as usize] || is_frozen(&e, new_frozen) {
+                if dirty[a as usize] || dirty[b as usize] {
                     continue;
                 }
                 let Some((c, d, t1, t2)) = mesh.flip_quad(a, b) else {
