@@ -123,12 +123,12 @@ fn inverted(mesh: &Mesh, t: [u32; 3]) -> bool {
 fn compact_new(mesh: &mut Mesh, first: usize, used: &std::collections::HashSet<u32>) {
     let mut remap: Vec<u32> = (0..mesh.positions.len() as u32).collect();
     let mut w = first;
-    for r in first..mesh.positions.len() {
+    for (r, slot) in remap.iter_mut().enumerate().skip(first) {
         if used.contains(&(r as u32)) {
             mesh.positions[w] = mesh.positions[r];
             mesh.normals[w] = mesh.normals[r];
             mesh.ambiguous[w] = mesh.ambiguous[r];
-            remap[r] = w as u32;
+            *slot = w as u32;
             w += 1;
         }
     }

@@ -45,7 +45,6 @@ pub mod project;
 pub mod remesh;
 pub mod watch;
 
-use std::collections::{HashMap, HashSet};
 use std::time::Instant;
 
 use glam::DVec3;
@@ -173,10 +172,7 @@ pub struct Tracker<'s> {
     stiff: Stiffness,
     mesh: DynMesh,
     inverted: Vec<bool>,
-    prev_len: HashMap<EdgeKey, f64>,
-    frozen: HashSet<EdgeKey>,
-    /// Edges left outside the band by the last remeshing, and why.
-    held: HashMap<EdgeKey, remesh::Held>,
+    edges: remesh::EdgeState,
     topo: (usize, Vec<Option<i64>>),
     t: f64,
     geometric: Mesh,
@@ -238,9 +234,7 @@ impl<'s> Tracker<'s> {
             stiff: Stiffness::new(opts.young, opts.poisson, edge),
             mesh: DynMesh::default(),
             inverted: Vec::new(),
-            prev_len: HashMap::new(),
-            frozen: HashSet::new(),
-            held: HashMap::new(),
+            edges: remesh::EdgeState::default(),
             topo: (0, Vec::new()),
             t: t0,
             geometric: Mesh::default(),
@@ -283,10 +277,12 @@ impl<'s> Tracker<'s> {
     /// end positions, with the rule that kept each (see [`remesh::Held`]).
     pub fn held_edges(&self) -> Vec<(DVec3, DVec3, remesh::Held)> {
         let alive = |v: u32| self.mesh.vert_alive[v as usize];
-        let frozen = self.frozen.iter().map(|&e| (e, remesh::Held::Frozen));
-        let held = self.held.iter().map(|(&e, &h)| (e, h));
+        let frozen = &self.edges.frozen;
+        let held = self.edges.held.iter().map(|(&e, &h)| (e, h));
         frozen
-            .chain(held.filter(|(e, _)| !self.frozen.contains(e)))
+            .iter()
+            .map(|&e| (e, remesh::Held::Frozen))
+            .chain(held.filter(|(e, _)| !frozen.contains(e)))
             .filter(|((a, b), _)| alive(*a) && alive(*b))
             .map(|((a, b), h)| (self.mesh.pos[a as usize], self.mesh.pos[b as usize], h))
             .collect()
@@ -317,9 +313,7 @@ impl<'s> Tracker<'s> {
     fn reinit(&mut self, mesh: &Mesh, topo: topology::Topology, t: f64) {
         self.mesh = DynMesh::from_mesh(mesh);
         self.inverted = vec![false; self.mesh.tris.len()];
-        self.prev_len.clear();
-        self.frozen.clear();
-        self.held.clear();
+        self.edges = remesh::EdgeState::default();
         self.topo = topo_key(&topo);
         let field = SurfaceField {
             surface: self.surface,
@@ -327,17 +321,13 @@ impl<'s> Tracker<'s> {
         };
         let params = self.remesh_params(8);
         for _ in 0..8 {
-            let mut scratch = HashSet::new();
-            let mut held = HashMap::new();
+            let mut scratch = remesh::EdgeState::default();
             let c = remesh::remesh(
                 &mut self.mesh,
                 &field,
                 &params,
-                &HashMap::new(),
-                &HashSet::new(),
-                &mut self.inverted,
                 &mut scratch,
-                &mut held,
+                &mut self.inverted,
             );
             if c == remesh::Counts::default() {
                 break;
@@ -442,24 +432,21 @@ impl<'s> Tracker<'s> {
         // Remeshing closes the frame, so that the meshes handed out have
         // their edges in [e_min, e_max]·ê; for the next frame's step it is
         // the paper's "before the quasi-static integration step" (§2.5).
-        let mut new_frozen = HashSet::new();
         let params = self.remesh_params(4);
+        self.edges.new_frozen.clear();
         let counts = remesh::remesh(
             &mut self.mesh,
             &field,
             &params,
-            &self.prev_len,
-            &self.frozen,
+            &mut self.edges,
             &mut self.inverted,
-            &mut new_frozen,
-            &mut self.held,
         );
         rep.splits = counts.splits;
         rep.collapses = counts.collapses;
         rep.flips = counts.flips;
         rep.inverted_left = self.flag_inversions();
-        self.frozen = new_frozen;
-        self.prev_len = self
+        self.edges.frozen = std::mem::take(&mut self.edges.new_frozen);
+        self.edges.prev_len = self
             .mesh
             .edges()
             .into_iter()
@@ -517,16 +504,17 @@ impl<'s> Tracker<'s> {
             let (a, b) = (remap[e.0 as usize], remap[e.1 as usize]);
             (a != u32::MAX && b != u32::MAX).then(|| key(a, b))
         };
-        self.prev_len = self
+        let e = &mut self.edges;
+        e.prev_len = e
             .prev_len
             .iter()
-            .filter_map(|(&e, &l)| map(e).map(|e| (e, l)))
+            .filter_map(|(&k, &l)| map(k).map(|k| (k, l)))
             .collect();
-        self.frozen = self.frozen.iter().filter_map(|&e| map(e)).collect();
-        self.held = self
+        e.frozen = e.frozen.iter().filter_map(|&k| map(k)).collect();
+        e.held = e
             .held
             .iter()
-            .filter_map(|(&e, &h)| map(e).map(|e| (e, h)))
+            .filter_map(|(&k, &h)| map(k).map(|k| (k, h)))
             .collect();
     }
 

@@ -82,21 +82,35 @@ pub enum Held {
     Busy,
 }
 
-/// One remeshing pass; see the module doc. `frozen` are the edges the
-/// last frame modified; the edges modified now are added to `new_frozen`.
-/// `inverted[i]` flags triangle `i` (triangles created here are not).
-/// `held` receives, for the edges still outside the band that an
-/// operation was refused, why (the last refusal).
+/// What remeshing remembers about edges between frames.
+#[derive(Clone, Debug, Default)]
+pub struct EdgeState {
+    /// Edge lengths at the end of the last frame (for Δ).
+    pub prev_len: HashMap<EdgeKey, f64>,
+    /// Edges the last frame modified: not split or collapsed now.
+    pub frozen: HashSet<EdgeKey>,
+    /// Edges modified now (frozen for the next frame).
+    pub new_frozen: HashSet<EdgeKey>,
+    /// For edges still outside the band that an operation was refused,
+    /// why (the last refusal).
+    pub held: HashMap<EdgeKey, Held>,
+}
+
+/// One remeshing pass; see the module doc. `inverted[i]` flags triangle
+/// `i` (triangles created here are not).
 pub fn remesh(
     mesh: &mut DynMesh,
     field: &dyn Field,
     p: &Params,
-    prev_len: &HashMap<EdgeKey, f64>,
-    frozen: &HashSet<EdgeKey>,
+    edges: &mut EdgeState,
     inverted: &mut Vec<bool>,
-    new_frozen: &mut HashSet<EdgeKey>,
-    held: &mut HashMap<EdgeKey, Held>,
 ) -> Counts {
+    let EdgeState {
+        prev_len,
+        frozen,
+        new_frozen,
+        held,
+    } = edges;
     let mut counts = Counts::default();
     held.clear();
     for _ in 0..p.sweeps {
