@@ -148,19 +148,33 @@ impl Surface {
         self.kernels.point(p)
     }
 
-    /// f and ∇f at `[x, y, z, t]`: the value from the point kernel, the
-    /// gradient the midpoint of the interval-gradient kernel's enclosure
-    /// over the degenerate box `[p, p]` (a few ulps wide at most).
+    /// f and ∇f = `(∂f/∂x, ∂f/∂y, ∂f/∂z)` at `[x, y, z, t]` (point-gradient
+    /// kernel, compiled on first use): forward-mode AD in f64, bit for bit
+    /// [`crate::eval::grad::eval_point`]; the value is the point kernel's.
+    /// Where there is no derivative (the value is NaN, `sqrt` at 0, …) the
+    /// gradient is NaN.
     pub fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
-        let g = self.kernels.grad(p.map(|c| Interval { lo: c, hi: c }));
-        let mid = |i: Interval| {
-            if i.lo == i.hi {
-                i.lo
-            } else {
-                0.5 * i.lo + 0.5 * i.hi
-            }
-        };
-        (self.point(p), g.grad.map(mid))
+        self.kernels.point_grad(p)
+    }
+
+    /// [`Surface::point_grad`] at every `[x, y, z]` of `pts` at time `t`
+    /// (batch point-gradient kernel).
+    pub fn point_grad_batch(&self, pts: &[[f64; 3]], t: f64) -> Vec<(f64, [f64; 3])> {
+        let col = |k: usize| pts.iter().map(|p| p[k]).collect::<Vec<f64>>();
+        let (xs, ys, zs) = (col(0), col(1), col(2));
+        let mut out = vec![0.0; 4 * pts.len()];
+        match self.kernels.point_grad_batch(&xs, &ys, &zs, t, &mut out) {
+            Ok(()) => out
+                .chunks_exact(4)
+                .map(|r| (r[0], [r[1], r[2], r[3]]))
+                .collect(),
+            // The kernel failed to compile: the single-point path falls
+            // back to the reference evaluator.
+            Err(_) => pts
+                .iter()
+                .map(|p| self.point_grad([p[0], p[1], p[2], t]))
+                .collect(),
+        }
     }
 
     /// Enclosure of f over a box `[x, y, z, t]` (interval kernel).

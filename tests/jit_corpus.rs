@@ -60,5 +60,18 @@ fn every_corpus_file_compiles() {
         for (i, (d, g)) in dv.iter().zip(jg.grad).enumerate() {
             assert!(d.is_nan() || (g.lo <= *d && *d <= g.hi), "{name}: d{i}");
         }
+        // The point-gradient kernel (verified, with text) is bit for bit
+        // the reference.
+        let (pv, pd) = k.point_grad(p);
+        let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+        let (ev, _) = isoc::eval::grad::eval_point(prog, p);
+        assert!(same(pv, ev), "{name}: {pv} vs {ev}");
+        for i in 0..3 {
+            assert!(same(pd[i], dv[i]), "{name}: d{i} {} vs {}", pd[i], dv[i]);
+        }
+        for info in k.point_grad_info().unwrap() {
+            assert!(info.code_bytes > 0, "{name}: {}", info.name);
+            assert!(info.clif.as_deref().is_some_and(|s| s.contains("function")));
+        }
     }
 }

@@ -208,8 +208,9 @@ fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result
             };
             let kernels =
                 crate::jit::Kernels::compile_with(&surface.program, &opts).map_err(Error::Jit)?;
+            let pg = kernels.point_grad_info().map_err(Error::Jit)?;
             let mut s = String::new();
-            for info in kernels.info() {
+            for info in kernels.info().iter().chain(pg) {
                 let text = if kind == Emit::Clif {
                     &info.clif
                 } else {
@@ -238,7 +239,11 @@ fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result
                 s += &format!("  param {name} = {v}\n");
             }
             s += "  kernels (machine code, compile time):\n";
-            for info in surface.kernels().info() {
+            // The point-gradient kernel is compiled on first use; the
+            // summary asks for it.
+            let k = surface.kernels();
+            let pg = k.point_grad_info().map_err(Error::Jit)?;
+            for info in k.info().iter().chain(pg) {
                 s += &format!(
                     "    {:<15} {:>7} bytes  {:>8.3} ms\n",
                     info.name,

@@ -17,14 +17,16 @@
 //! per-op enclosures ([`crate::interval`]), so the JIT and the interpreter
 //! cannot disagree on them. The gradient helpers run the reference
 //! gradient evaluator's own per-op rules ([`crate::eval::grad::step`]) on
-//! decorated intervals.
+//! decorated intervals. The point-gradient helper ([`PG_OP`]) runs the same
+//! rules in f64 on `[v, dx, dy, dz]` records: one call gives an op's value
+//! and its derivatives, bit for bit [`crate::eval::grad::eval_point`]'s.
 
 use crate::eval::grad::{self, Dual};
 use crate::interval::{self, DecInterval, Interval};
 use crate::ir::{BinOp, Op, UnOp, Value};
 
 /// `(name, address)` of every helper, for `JITBuilder::symbols`.
-pub fn symbols() -> [(&'static str, *const u8); 7] {
+pub fn symbols() -> [(&'static str, *const u8); 8] {
     [
         (PT_UNARY, pt_unary as *const u8),
         (PT_BINARY, pt_binary as *const u8),
@@ -33,6 +35,7 @@ pub fn symbols() -> [(&'static str, *const u8); 7] {
         (IV_POWI, iv_powi as *const u8),
         (GD_UNARY, gd_unary as *const u8),
         (GD_BINARY, gd_binary as *const u8),
+        (PG_OP, pg_op as *const u8),
     ]
 }
 
@@ -43,6 +46,9 @@ pub const IV_BINARY: &str = "isoc_iv_binary";
 pub const IV_POWI: &str = "isoc_iv_powi";
 pub const GD_UNARY: &str = "isoc_gd_unary";
 pub const GD_BINARY: &str = "isoc_gd_binary";
+pub const PG_OP: &str = "isoc_pg_op";
+/// `pg_op` codes at or above this are binary ops (minus it), below unary.
+pub const PG_BINARY_BASE: u32 = 1 << 16;
 /// `gd_binary` op code standing for `powi` (with `n` passed as the second
 /// operand's `F.lo`).
 pub const GD_POWI_CODE: u32 = 1000;
@@ -205,4 +211,53 @@ unsafe extern "C" fn gd_binary(op: u32, a: *const f64, b: *const f64, n: i64, ou
     };
     // SAFETY: as above.
     unsafe { write_dual(out, &r) }
+}
+
+/// # Safety
+/// `p` points to 4 readable f64.
+unsafe fn read_pdual(p: *const f64) -> Dual<f64> {
+    // SAFETY: guaranteed by the caller.
+    let r = unsafe { std::slice::from_raw_parts(p, 4) };
+    Dual {
+        v: r[0],
+        d: [r[1], r[2], r[3]],
+    }
+}
+
+/// Value and derivatives of one op in f64 by the reference evaluator's
+/// rules ([`grad::step`] on `f64`; the NaN poisoning of
+/// [`grad::eval_point`] is the kernel's job). `code` below
+/// [`PG_BINARY_BASE`] is a unary op (`b` not read), else the binary op
+/// `code - PG_BINARY_BASE`; an unknown code gives NaN.
+///
+/// # Safety
+/// `a` and `b` point to 4 readable f64 (`[v, dx, dy, dz]`), `out` to 4
+/// writable f64.
+unsafe extern "C" fn pg_op(code: u32, a: *const f64, b: *const f64, out: *mut f64) {
+    // SAFETY: the kernel passes a stack slot of 4 f64.
+    let a = unsafe { read_pdual(a) };
+    let input = [f64::NAN; 4];
+    let nan = Dual {
+        v: f64::NAN,
+        d: [f64::NAN; 3],
+    };
+    let r = if code >= PG_BINARY_BASE {
+        match BinOp::ALL.get((code - PG_BINARY_BASE) as usize) {
+            Some(&op) => {
+                // SAFETY: as above; `b` is valid for binary codes.
+                let b = unsafe { read_pdual(b) };
+                grad::step(&Op::Binary(op, Value(0), Value(1)), &[a, b], input)
+            }
+            None => nan,
+        }
+    } else {
+        match UnOp::ALL.get(code as usize) {
+            Some(&op) => grad::step(&Op::Unary(op, Value(0)), &[a], input),
+            None => nan,
+        }
+    };
+    // SAFETY: the kernel passes a stack slot of 4 writable f64.
+    let w = unsafe { std::slice::from_raw_parts_mut(out, 4) };
+    w[0] = r.v;
+    w[1..].copy_from_slice(&r.d);
 }

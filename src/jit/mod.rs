@@ -1,6 +1,6 @@
-//! The JIT: three Cranelift kernels per program behind `extern "C"` function
-//! pointers — point, interval and interval-gradient — each with a single
-//! and a batch entry point.
+//! The JIT: four Cranelift kernels per program behind `extern "C"` function
+//! pointers — point, interval, interval-gradient and point-gradient — each
+//! with a single and a batch entry point.
 //!
 //! # Contract
 //!
@@ -17,7 +17,15 @@
 //!   "defined and continuous on the whole box" (as [`DecInterval::defined`]);
 //! - **interval-gradient**: enclosures of `(F, ∂F/∂x, ∂F/∂y, ∂F/∂z)` by
 //!   forward-mode AD over intervals, plus the flag "defined, continuous and
-//!   differentiable on the whole box" (as [`GradEval::defined`]).
+//!   differentiable on the whole box" (as [`GradEval::defined`]);
+//! - **point-gradient**: `(f, ∂f/∂x, ∂f/∂y, ∂f/∂z)` by forward-mode AD in
+//!   f64, bit for bit [`crate::eval::grad::eval_point`] (see [`pgrad`]).
+//!   It is compiled *lazily*, into its own module, on the first call of
+//!   [`Kernels::point_grad`] (or its batch and raw forms) and kept in a
+//!   `OnceLock`: [`Kernels::compile`] costs no more for programs whose
+//!   point gradient is never asked for. A compilation failure is
+//!   remembered and reported as a [`JitError`] by the fallible methods;
+//!   [`Kernels::point_grad`] then falls back to the reference evaluator.
 //!
 //! Kernels never allocate, never unwind, and touch no memory but their
 //! arguments, their stack and the constant pool owned by [`Kernels`].
@@ -35,6 +43,8 @@
 //! | interval batch | `fn(input: *const f64, out: *mut f64, defined: *mut u8, n: u64)` | `input`: `n` records of 8 f64 as above; `out`: `n` records of 2; `defined`: `n` bytes, each 0 or 1 |
 //! | gradient | `fn(input: *const f64, out: *mut f64) -> u8` | `input` as for interval; `out`: `[F.lo, F.hi, Fx.lo, Fx.hi, Fy.lo, Fy.hi, Fz.lo, Fz.hi]` |
 //! | gradient batch | `fn(input: *const f64, out: *mut f64, defined: *mut u8, n: u64)` | `input`: `n` records of 8; `out`: `n` records of 8; `defined`: `n` bytes |
+//! | point gradient | `fn(x, y, z, t: f64, out: *mut f64)` | `out`: `[f, fx, fy, fz]` |
+//! | point gradient batch | `fn(xs, ys, zs: *const f64, t: f64, out: *mut f64, n: u64)` | `xs ys zs`: `n` f64 each; `out`: `n` records of 4 as above |
 //!
 //! The safe methods ([`Kernels::point`], [`Kernels::interval_batch`], …)
 //! check buffer lengths and call these.
@@ -52,15 +62,18 @@
 //! Ops that are not inline call Rust functions in [`helpers`], registered
 //! with `JITBuilder::symbol`: the reference evaluator's per-op point
 //! functions and [`crate::interval`]'s per-op enclosures (CORE-MATH,
-//! correctly rounded, widened by one ulp). See [`point`], [`interval`] and
-//! [`grad`] for which ops are inline.
+//! correctly rounded, widened by one ulp), and its per-op derivative rules
+//! in f64 (point gradient). See [`point`], [`interval`], [`grad`] and
+//! [`pgrad`] for which ops are inline.
 
 mod grad;
 pub mod helpers;
 mod interval;
+mod pgrad;
 mod point;
 pub mod rounding;
 
+use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use cranelift_codegen::ir as clif;
@@ -86,6 +99,14 @@ pub type PointBatchFn =
 pub type BoxFn = unsafe extern "C" fn(*const f64, *mut f64) -> u8;
 /// Batch interval or gradient kernel.
 pub type BoxBatchFn = unsafe extern "C" fn(*const f64, *mut f64, *mut u8, u64);
+
+/// Single-point value and gradient kernel: writes `[f, fx, fy, fz]` to
+/// `out` (4 f64).
+pub type PointGradFn = unsafe extern "C" fn(f64, f64, f64, f64, *mut f64);
+/// Batch point-gradient kernel (see the ABI table): `out` gets `n` records
+/// of 4 f64.
+pub type PointGradBatchFn =
+    unsafe extern "C" fn(*const f64, *const f64, *const f64, f64, *mut f64, u64);
 
 /// A failure to compile (or to call with mismatched buffers).
 #[derive(Debug, Clone, PartialEq)]
@@ -113,15 +134,19 @@ impl std::fmt::Display for JitError {
 
 impl std::error::Error for JitError {}
 
-/// The three kernel kinds.
+/// The kernel kinds: the three compiled by [`Kernels::compile`] and the
+/// point gradient, compiled on first use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kind {
     Point,
     Interval,
     Grad,
+    /// f64 value and gradient ([`pgrad`]); not in [`Kind::ALL`].
+    PointGrad,
 }
 
 impl Kind {
+    /// The kinds compiled eagerly by [`Kernels::compile`].
     pub const ALL: [Kind; 3] = [Kind::Point, Kind::Interval, Kind::Grad];
 
     pub fn name(self) -> &'static str {
@@ -129,6 +154,7 @@ impl Kind {
             Kind::Point => "point",
             Kind::Interval => "interval",
             Kind::Grad => "grad",
+            Kind::PointGrad => "point_grad",
         }
     }
 }
@@ -169,8 +195,8 @@ pub struct KernelInfo {
 struct ModuleOwner(Option<JITModule>);
 
 // SAFETY: the module is never accessed through `&self` after construction
-// (no method of `Kernels` reaches it); it is only moved and finally freed
-// in `Drop`, which has exclusive access.
+// (no method of `Kernels` or of its point-gradient kernels reaches it); it
+// is only moved and finally freed in `Drop`, which has exclusive access.
 unsafe impl Sync for ModuleOwner {}
 // SAFETY: as above; moving the module between threads is not observable
 // by the kernels, which only depend on the memory it keeps mapped.
@@ -180,9 +206,47 @@ impl Drop for ModuleOwner {
     fn drop(&mut self) {
         if let Some(m) = self.0.take() {
             // SAFETY: the function pointers into this memory are held only
-            // by the `Kernels` being dropped; they cannot be called after.
+            // by the `Kernels` (or its point-gradient kernels) being
+            // dropped, or by nobody when a compilation failed half-way;
+            // they cannot be called after.
             unsafe { m.free_memory() };
         }
+    }
+}
+
+/// The point-gradient entry points, in their own module (compiled on first
+/// use, see [`Kernels::point_grad`]).
+struct PointGradKernels {
+    single: PointGradFn,
+    batch: PointGradBatchFn,
+    info: Vec<KernelInfo>,
+    _module: ModuleOwner,
+}
+
+impl PointGradKernels {
+    /// Compiles both entry points; `pool_addr` is the constant pool of the
+    /// [`Kernels`] that will own the result.
+    fn compile(
+        prog: &ir::Program,
+        pool_addr: i64,
+        opts: &JitOptions,
+    ) -> Result<PointGradKernels, JitError> {
+        let (module, p, info) = build(prog, pool_addr, opts, &[Kind::PointGrad])?;
+        // SAFETY: as in `Kernels::compile_with`: the pointers are the
+        // finalized code of functions declared with `entry_sig`'s
+        // signatures, matching these types, and live as long as `module`.
+        let (single, batch) = unsafe {
+            (
+                std::mem::transmute::<*const u8, PointGradFn>(p[0]),
+                std::mem::transmute::<*const u8, PointGradBatchFn>(p[1]),
+            )
+        };
+        Ok(PointGradKernels {
+            single,
+            batch,
+            info,
+            _module: module,
+        })
     }
 }
 
@@ -196,10 +260,15 @@ pub struct Kernels {
     grad_batch: BoxBatchFn,
     info: Vec<KernelInfo>,
     ir_len: usize,
-    // Field order matters: the module (code) is dropped before the pool,
+    /// The program and options, for compiling the point-gradient kernel
+    /// on first use.
+    program: ir::Program,
+    opts: JitOptions,
+    pgrad: OnceLock<Result<PointGradKernels, JitError>>,
+    // Field order matters: the modules (code) are dropped before the pool,
     // and neither is touched but by the kernels.
     _module: ModuleOwner,
-    _pool: Box<[f64]>,
+    pool: Box<[f64]>,
 }
 
 impl std::fmt::Debug for Kernels {
@@ -212,7 +281,7 @@ impl std::fmt::Debug for Kernels {
 }
 
 /// Helper signatures, in [`helpers::symbols`] order.
-fn helper_sigs(cc: cranelift_codegen::isa::CallConv, ptr: clif::Type) -> [Signature; 7] {
+fn helper_sigs(cc: cranelift_codegen::isa::CallConv, ptr: clif::Type) -> [Signature; 8] {
     use types::{F64, I8, I32, I64};
     let sig = |params: &[clif::Type], ret: clif::Type| {
         let mut s = Signature::new(cc);
@@ -228,6 +297,12 @@ fn helper_sigs(cc: cranelift_codegen::isa::CallConv, ptr: clif::Type) -> [Signat
         sig(&[F64, F64, I64, ptr], I8),
         sig(&[I32, ptr, ptr], I8),
         sig(&[I32, ptr, ptr, I64, ptr], I8),
+        {
+            let mut s = Signature::new(cc);
+            s.params
+                .extend([I32, ptr, ptr, ptr].iter().map(|&t| AbiParam::new(t)));
+            s
+        },
     ]
 }
 
@@ -235,10 +310,11 @@ fn helper_sigs(cc: cranelift_codegen::isa::CallConv, ptr: clif::Type) -> [Signat
 pub(crate) struct Env<'a> {
     b: FunctionBuilder<'a>,
     pool: Value,
-    helpers: [FuncRef; 7],
+    helpers: Vec<FuncRef>,
     ptr: clif::Type,
     iv_slot: Option<clif::StackSlot>,
     gd_slots: Option<[clif::StackSlot; 3]>,
+    pg_slot: Option<clif::StackSlot>,
 }
 
 const POOL_STRIDE: usize = 3;
@@ -378,7 +454,9 @@ impl Env<'_> {
 }
 
 impl Kernels {
-    /// Compiles the three kernels (single and batch entry points) of `prog`.
+    /// Compiles the point, interval and gradient kernels (single and batch
+    /// entry points) of `prog`; the point-gradient kernel is compiled on
+    /// first use.
     pub fn compile(prog: &ir::Program) -> Result<Kernels, JitError> {
         Kernels::compile_with(prog, &JitOptions::default())
     }
@@ -402,118 +480,8 @@ impl Kernels {
             }
         }
 
-        let mut flags = settings::builder();
-        let set = |f: &mut settings::Builder, k: &str, v: &str| {
-            f.set(k, v).map_err(|e| JitError::Target(e.to_string()))
-        };
-        set(&mut flags, "opt_level", "speed")?;
-        let ra = if opts.fast_compile {
-            "single_pass"
-        } else {
-            "backtracking"
-        };
-        set(&mut flags, "regalloc_algorithm", ra)?;
-        set(&mut flags, "use_colocated_libcalls", "false")?;
-        set(&mut flags, "is_pic", "false")?;
-        set(
-            &mut flags,
-            "enable_verifier",
-            if opts.verify { "true" } else { "false" },
-        )?;
-        let isa = cranelift_native::builder()
-            .map_err(|e| JitError::Target(e.to_string()))?
-            .finish(settings::Flags::new(flags))
-            .map_err(|e| JitError::Target(e.to_string()))?;
-        let mut jb = JITBuilder::with_isa(isa, default_libcall_names());
-        jb.symbols(helpers::symbols());
-        let mut module = JITModule::new(jb);
-
-        let ptr = module.target_config().pointer_type();
-        let cc = module.isa().default_call_conv();
-        let mut helper_ids = Vec::with_capacity(7);
-        for ((name, _), sig) in helpers::symbols().iter().zip(helper_sigs(cc, ptr)) {
-            let id = module
-                .declare_function(name, Linkage::Import, &sig)
-                .map_err(|e| JitError::Codegen(e.to_string()))?;
-            helper_ids.push(id);
-        }
-
-        let mut ctx = module.make_context();
-        let mut fctx = FunctionBuilderContext::new();
-        let mut ids = Vec::new();
-        let mut info = Vec::new();
         let pool_addr = pool.as_ptr() as i64;
-        for kind in Kind::ALL {
-            for batch in [false, true] {
-                let t0 = Instant::now();
-                let name = entry_name(kind, batch);
-                let sig = entry_sig(kind, batch, cc, ptr);
-                let id = module
-                    .declare_function(name, Linkage::Local, &sig)
-                    .map_err(|e| JitError::Codegen(e.to_string()))?;
-                ctx.func.signature = sig;
-                {
-                    let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
-                    let refs: Vec<FuncRef> = helper_ids
-                        .iter()
-                        .map(|&h| module.declare_func_in_func(h, b.func))
-                        .collect();
-                    let entry = b.create_block();
-                    b.append_block_params_for_function_params(entry);
-                    b.switch_to_block(entry);
-                    let pool_v = b.ins().iconst(ptr, pool_addr);
-                    let mut env = Env {
-                        b,
-                        pool: pool_v,
-                        helpers: [
-                            refs[0], refs[1], refs[2], refs[3], refs[4], refs[5], refs[6],
-                        ],
-                        ptr,
-                        iv_slot: None,
-                        gd_slots: None,
-                    };
-                    emit_entry(&mut env, prog, kind, batch, entry);
-                    env.b.seal_all_blocks();
-                    env.b.finalize(module.target_config());
-                }
-                ctx.set_disasm(opts.keep_text);
-                module
-                    .define_function(id, &mut ctx)
-                    .map_err(|e| JitError::Codegen(format!("{e:?}")))?;
-                let code = ctx.compiled_code();
-                let code_bytes = code.map_or(0, |c| c.code_buffer().len());
-                let asm = if opts.keep_text {
-                    code.and_then(|c| c.vcode.clone())
-                } else {
-                    None
-                };
-                let clif = opts.keep_text.then(|| ctx.func.display().to_string());
-                module.clear_context(&mut ctx);
-                ids.push(id);
-                info.push(KernelInfo {
-                    kind,
-                    batch,
-                    name,
-                    code_bytes,
-                    compile_time: t0.elapsed(),
-                    clif,
-                    asm,
-                });
-            }
-        }
-        let t0 = Instant::now();
-        module
-            .finalize_definitions()
-            .map_err(|e| JitError::Codegen(e.to_string()))?;
-        // Attribute finalisation (relocation, mprotect) evenly.
-        let share = t0.elapsed() / info.len() as u32;
-        for i in &mut info {
-            i.compile_time += share;
-        }
-        let p: Vec<*const u8> = ids
-            .iter()
-            .map(|&id| module.get_finalized_function(id))
-            .collect();
+        let (module, p, info) = build(prog, pool_addr, opts, &Kind::ALL)?;
         // SAFETY: each pointer is the finalized code of a function declared
         // with the signature `entry_sig` gives, which is the Rust type it is
         // transmuted to (System V `extern "C"`; u8/u64 are i8/i64). The code
@@ -537,8 +505,11 @@ impl Kernels {
             grad_batch,
             info,
             ir_len: prog.len(),
-            _module: ModuleOwner(Some(module)),
-            _pool: pool,
+            program: prog.clone(),
+            opts: *opts,
+            pgrad: OnceLock::new(),
+            _module: module,
+            pool,
         })
     }
 
@@ -568,6 +539,87 @@ impl Kernels {
             .filter(|i| i.kind == kind)
             .map(|i| i.compile_time)
             .sum()
+    }
+
+    /// The point-gradient kernels, compiled on the first call (by one
+    /// thread; others wait). A failure is remembered and returned again.
+    fn pgrad(&self) -> Result<&PointGradKernels, JitError> {
+        self.pgrad
+            .get_or_init(|| {
+                PointGradKernels::compile(&self.program, self.pool.as_ptr() as i64, &self.opts)
+            })
+            .as_ref()
+            .map_err(Clone::clone)
+    }
+
+    /// The raw single point-gradient kernel (compiled on first use).
+    pub fn point_grad_fn(&self) -> Result<PointGradFn, JitError> {
+        Ok(self.pgrad()?.single)
+    }
+    /// The raw batch point-gradient kernel (compiled on first use).
+    pub fn point_grad_batch_fn(&self) -> Result<PointGradBatchFn, JitError> {
+        Ok(self.pgrad()?.batch)
+    }
+    /// Info on the point-gradient entry points (compiling them if needed).
+    pub fn point_grad_info(&self) -> Result<&[KernelInfo], JitError> {
+        Ok(&self.pgrad()?.info)
+    }
+
+    /// `f` and `(∂f/∂x, ∂f/∂y, ∂f/∂z)` at `[x, y, z, t]`, as
+    /// [`crate::eval::grad::eval_point`] (the value bit for bit the point
+    /// kernel's). Compiles the point-gradient kernel on the first call;
+    /// should that fail, falls back to the reference evaluator (same
+    /// results, slower).
+    pub fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
+        match self.pgrad() {
+            Ok(k) => {
+                let mut out = [0.0; 4];
+                // SAFETY: the kernel takes four f64 by value and writes 4
+                // f64 to `out`; it reads only the constant pool, which
+                // `self` keeps alive.
+                unsafe { (k.single)(p[0], p[1], p[2], p[3], out.as_mut_ptr()) };
+                (out[0], [out[1], out[2], out[3]])
+            }
+            Err(_) => crate::eval::grad::eval_point(&self.program, p),
+        }
+    }
+
+    /// `out[4i..4i+4] = [f, fx, fy, fz]` at `(xs[i], ys[i], zs[i], t)`;
+    /// `xs ys zs` of one length `n`, `out` of `4n`. Errors on mismatched
+    /// lengths or if the kernel cannot be compiled.
+    pub fn point_grad_batch(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        t: f64,
+        out: &mut [f64],
+    ) -> Result<(), JitError> {
+        let n = xs.len();
+        if ys.len() != n || zs.len() != n || out.len() != 4 * n {
+            return Err(JitError::BufferLength(format!(
+                "xs {n}, ys {}, zs {}, out {} (want {})",
+                ys.len(),
+                zs.len(),
+                out.len(),
+                4 * n
+            )));
+        }
+        let k = self.pgrad()?;
+        // SAFETY: `xs ys zs` are valid for `n` f64 and `out` for `4n`
+        // (checked above), `out` is exclusively borrowed; the kernel
+        // touches only those indices and the pool `self` keeps alive.
+        unsafe {
+            (k.batch)(
+                xs.as_ptr(),
+                ys.as_ptr(),
+                zs.as_ptr(),
+                t,
+                out.as_mut_ptr(),
+                n as u64,
+            )
+        };
+        Ok(())
     }
 
     /// The raw single-point kernel (see the ABI in the module doc).
@@ -711,6 +763,148 @@ impl Kernels {
     }
 }
 
+/// A fresh JIT module for `opts` with the helpers registered.
+fn new_module(opts: &JitOptions) -> Result<JITModule, JitError> {
+    let mut flags = settings::builder();
+    let set = |f: &mut settings::Builder, k: &str, v: &str| {
+        f.set(k, v).map_err(|e| JitError::Target(e.to_string()))
+    };
+    set(&mut flags, "opt_level", "speed")?;
+    let ra = if opts.fast_compile {
+        "single_pass"
+    } else {
+        "backtracking"
+    };
+    set(&mut flags, "regalloc_algorithm", ra)?;
+    set(&mut flags, "use_colocated_libcalls", "false")?;
+    set(&mut flags, "is_pic", "false")?;
+    set(
+        &mut flags,
+        "enable_verifier",
+        if opts.verify { "true" } else { "false" },
+    )?;
+    let isa = cranelift_native::builder()
+        .map_err(|e| JitError::Target(e.to_string()))?
+        .finish(settings::Flags::new(flags))
+        .map_err(|e| JitError::Target(e.to_string()))?;
+    let mut jb = JITBuilder::with_isa(isa, default_libcall_names());
+    jb.symbols(helpers::symbols());
+    Ok(JITModule::new(jb))
+}
+
+/// Compiles the single and batch entry points of each of `kinds` into one
+/// new module; returns it with the finalized entry points (in `kinds`
+/// order, single then batch) and their info. The module's memory is freed
+/// if anything fails.
+#[allow(clippy::type_complexity)]
+fn build(
+    prog: &ir::Program,
+    pool_addr: i64,
+    opts: &JitOptions,
+    kinds: &[Kind],
+) -> Result<(ModuleOwner, Vec<*const u8>, Vec<KernelInfo>), JitError> {
+    let mut owner = ModuleOwner(Some(new_module(opts)?));
+    let Some(module) = owner.0.as_mut() else {
+        return Err(JitError::Target("no module".into()));
+    };
+    let (p, info) = define_entries(module, prog, pool_addr, opts, kinds)?;
+    Ok((owner, p, info))
+}
+
+fn define_entries(
+    module: &mut JITModule,
+    prog: &ir::Program,
+    pool_addr: i64,
+    opts: &JitOptions,
+    kinds: &[Kind],
+) -> Result<(Vec<*const u8>, Vec<KernelInfo>), JitError> {
+    let ptr = module.target_config().pointer_type();
+    let cc = module.isa().default_call_conv();
+    let mut helper_ids = Vec::with_capacity(helpers::symbols().len());
+    for ((name, _), sig) in helpers::symbols().iter().zip(helper_sigs(cc, ptr)) {
+        let id = module
+            .declare_function(name, Linkage::Import, &sig)
+            .map_err(|e| JitError::Codegen(e.to_string()))?;
+        helper_ids.push(id);
+    }
+
+    let mut ctx = module.make_context();
+    let mut fctx = FunctionBuilderContext::new();
+    let mut ids = Vec::new();
+    let mut info = Vec::new();
+    for &kind in kinds {
+        for batch in [false, true] {
+            let t0 = Instant::now();
+            let name = entry_name(kind, batch);
+            let sig = entry_sig(kind, batch, cc, ptr);
+            let id = module
+                .declare_function(name, Linkage::Local, &sig)
+                .map_err(|e| JitError::Codegen(e.to_string()))?;
+            ctx.func.signature = sig;
+            {
+                let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+                let refs: Vec<FuncRef> = helper_ids
+                    .iter()
+                    .map(|&h| module.declare_func_in_func(h, b.func))
+                    .collect();
+                let entry = b.create_block();
+                b.append_block_params_for_function_params(entry);
+                b.switch_to_block(entry);
+                let pool_v = b.ins().iconst(ptr, pool_addr);
+                let mut env = Env {
+                    b,
+                    pool: pool_v,
+                    helpers: refs,
+                    ptr,
+                    iv_slot: None,
+                    gd_slots: None,
+                    pg_slot: None,
+                };
+                emit_entry(&mut env, prog, kind, batch, entry);
+                env.b.seal_all_blocks();
+                env.b.finalize(module.target_config());
+            }
+            ctx.set_disasm(opts.keep_text);
+            module
+                .define_function(id, &mut ctx)
+                .map_err(|e| JitError::Codegen(format!("{e:?}")))?;
+            let code = ctx.compiled_code();
+            let code_bytes = code.map_or(0, |c| c.code_buffer().len());
+            let asm = if opts.keep_text {
+                code.and_then(|c| c.vcode.clone())
+            } else {
+                None
+            };
+            let clif = opts.keep_text.then(|| ctx.func.display().to_string());
+            module.clear_context(&mut ctx);
+            ids.push(id);
+            info.push(KernelInfo {
+                kind,
+                batch,
+                name,
+                code_bytes,
+                compile_time: t0.elapsed(),
+                clif,
+                asm,
+            });
+        }
+    }
+    let t0 = Instant::now();
+    module
+        .finalize_definitions()
+        .map_err(|e| JitError::Codegen(e.to_string()))?;
+    // Attribute finalisation (relocation, mprotect) evenly.
+    let share = t0.elapsed() / info.len() as u32;
+    for i in &mut info {
+        i.compile_time += share;
+    }
+    let p: Vec<*const u8> = ids
+        .iter()
+        .map(|&id| module.get_finalized_function(id))
+        .collect();
+    Ok((p, info))
+}
+
 fn flatten(input: [Interval; 4]) -> [f64; 8] {
     let mut r = [0.0; 8];
     for (k, iv) in input.iter().enumerate() {
@@ -747,6 +941,8 @@ fn entry_name(kind: Kind, batch: bool) -> &'static str {
         (Kind::Interval, true) => "interval_batch",
         (Kind::Grad, false) => "grad",
         (Kind::Grad, true) => "grad_batch",
+        (Kind::PointGrad, false) => "point_grad",
+        (Kind::PointGrad, true) => "point_grad_batch",
     }
 }
 
@@ -760,7 +956,8 @@ fn entry_sig(
     let mut s = Signature::new(cc);
     let (params, ret): (Vec<clif::Type>, Option<clif::Type>) = match (kind, batch) {
         (Kind::Point, false) => (vec![F64; 4], Some(F64)),
-        (Kind::Point, true) => (vec![ptr, ptr, ptr, F64, ptr, I64], None),
+        (Kind::Point, true) | (Kind::PointGrad, true) => (vec![ptr, ptr, ptr, F64, ptr, I64], None),
+        (Kind::PointGrad, false) => (vec![F64, F64, F64, F64, ptr], None),
         (_, false) => (vec![ptr, ptr], Some(I8)),
         (_, true) => (vec![ptr, ptr, ptr, I64], None),
     };
@@ -772,6 +969,10 @@ fn entry_sig(
 /// Emits the entry point's body (loop for batch) into `env`, starting in
 /// `entry`, whose parameters are the function's.
 fn emit_entry(env: &mut Env, prog: &ir::Program, kind: Kind, batch: bool, entry: clif::Block) {
+    if kind == Kind::PointGrad {
+        pgrad::emit_entry(env, prog, batch, entry);
+        return;
+    }
     let params: Vec<Value> = env.b.block_params(entry).to_vec();
     let f = Env::flags();
     if !batch {
@@ -780,7 +981,7 @@ fn emit_entry(env: &mut Env, prog: &ir::Program, kind: Kind, batch: bool, entry:
                 let r = point::lower(env, prog, [params[0], params[1], params[2], params[3]]);
                 env.b.ins().return_(&[r]);
             }
-            Kind::Interval | Kind::Grad => {
+            Kind::Interval | Kind::Grad | Kind::PointGrad => {
                 let input = [0, 1, 2, 3].map(|k| {
                     let iv = env.read_iv(params[0], 16 * k);
                     interval::normalize(env, iv)
@@ -821,7 +1022,7 @@ fn emit_entry(env: &mut Env, prog: &ir::Program, kind: Kind, batch: bool, entry:
             let oa = at(env, params[4]);
             env.b.ins().store(f, r, oa, 0);
         }
-        Kind::Interval | Kind::Grad => {
+        Kind::Interval | Kind::Grad | Kind::PointGrad => {
             let in_off = env.b.ins().imul_imm_s(i, 64);
             let ia = env.b.ins().iadd(params[0], in_off);
             let input = [0, 1, 2, 3].map(|k| {

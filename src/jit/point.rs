@@ -68,7 +68,7 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [Value; 4]) -> Value {
 }
 
 /// `a / b`, NaN when `b` is ±0 (the IR's point semantics).
-fn div_nan(env: &mut Env, a: Value, b: Value) -> Value {
+pub(super) fn div_nan(env: &mut Env, a: Value, b: Value) -> Value {
     let ins = &mut env.b;
     let q = ins.ins().fdiv(a, b);
     let zero = ins.ins().f64const(0.0);
