@@ -4,7 +4,10 @@
 //!
 //! ```text
 //! source ──syntax──▶ AST ──syntax::lower──▶ ir::Program ──▶ eval (reference interpreters)
-//!                                                       └──▶ jit (Cranelift kernels)
+//!                                                       └──▶ jit (Cranelift kernels) ──▶ surface
+//!
+//! surface ──octree──▶ dual ──polygonize──▶ mesh (robust adaptive mesher) ──▶ io
+//! surface(t) ──twin──▶ mechanical + geometric meshes per frame (`isoc animate`)
 //! ```
 //!
 //! The library never prints and never exits: every failure is a typed value

@@ -313,3 +313,78 @@ fn forced_inversions_are_found_and_repaired() {
     }
     assert_eq!(tr.inverted_count(), 0);
 }
+
+/// Area-weighted mean of `1 − n̂·ĝ` over the triangles (`ĝ` the unit
+/// gradient at the centroid): 0 when every triangle lies along the level
+/// set.
+fn misalignment(s: &Surface, mesh: &Mesh) -> f64 {
+    let (mut sum, mut area) = (0.0, 0.0);
+    for &t in &mesh.triangles {
+        let n = mesh.face_normal(t);
+        let c = t.iter().map(|&v| mesh.positions[v as usize]).sum::<DVec3>() / 3.0;
+        let (_, g) = s.point_grad([c.x, c.y, c.z, 0.0]);
+        let g = DVec3::from_array(g).normalize();
+        let a = n.length();
+        sum += a * (1.0 - n.normalize().dot(g));
+        area += a;
+    }
+    sum / area
+}
+
+#[test]
+fn sharp_feature_constraint_aligns_triangles_with_the_gradient() {
+    // The ‖·‖₁ ball (an octahedron, the paper's Fig. 9b): its gradient
+    // jumps across the edges.
+    let s = surface("domain [-1.5, 1.5]^3; surface abs(x) + abs(y) + abs(z) - 1;");
+    let run = |sharp: bool| {
+        let opts = TwinOptions {
+            sharp,
+            edge: Some(0.12),
+            ..TwinOptions::default()
+        };
+        let mut tr = Tracker::new(&s, 0.0, &opts).expect("tracker");
+        for k in 0..8 {
+            let rep = tr.advance(0.0).expect("frame");
+            let mesh = tr.mechanical();
+            assert!(max_residual(&s, &mesh, 0.0) < 1e-9, "frame {k}");
+            assert!(analyze(&mesh).watertight, "frame {k}: {rep:?}");
+        }
+        misalignment(&s, &tr.mechanical())
+    };
+    let (off, on) = (run(false), run(true));
+    eprintln!("misalignment with eq. 4: {on}, without: {off}");
+    assert!(
+        on < 0.8 * off,
+        "misalignment with eq. 4: {on}, without: {off}"
+    );
+}
+
+#[test]
+fn the_topology_watch_proves_only_what_is_true() {
+    use isoc::Interval;
+    use isoc::twin::watch::{Verdict, certify};
+    let iv = |lo: f64, hi: f64| Interval { lo, hi };
+    // A pulsing sphere never changes topology: provable over any frame.
+    let s = corpus("pulse");
+    for k in 0..10 {
+        let t = k as f64 * 0.1;
+        let r = certify(&s, s.domain, iv(t, t + 0.05), 7, 50_000);
+        assert_eq!(r.verdict, Verdict::Proved, "pulse over [{t}, {}]", t + 0.05);
+    }
+    // Two blobs merge at t* = 1.6 − sqrt(ln(20/3)): no interval that
+    // contains t* may be called topology-preserving, however deep the
+    // search.
+    let s = corpus("blobs_merge");
+    let t_star = 1.6 - (20.0f64 / 3.0).ln().sqrt();
+    for (lo, hi) in [(0.2, 0.25), (0.22, 0.23), (0.0, 1.0), (t_star, t_star)] {
+        let r = certify(&s, s.domain, iv(lo, hi), 8, 200_000);
+        assert_eq!(r.verdict, Verdict::Unproved, "blobs over [{lo}, {hi}]");
+    }
+    // Far from the merge it is provable.
+    let r = certify(&s, s.domain, iv(0.0, 0.05), 7, 50_000);
+    assert_eq!(r.verdict, Verdict::Proved);
+    // A surface that crosses the domain boundary is never certified.
+    let s = surface("domain [-1, 1]^3; surface x - 0.5 * t;");
+    let r = certify(&s, s.domain, iv(0.0, 0.1), 6, 50_000);
+    assert_eq!(r.verdict, Verdict::Unproved);
+}

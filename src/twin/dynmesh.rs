@@ -152,7 +152,14 @@ impl DynMesh {
         out
     }
 
-    /// Every live edge once, with its length.
+    /// Whether `u–v` is an edge (no allocation).
+    pub fn adjacent(&self, u: u32, v: u32) -> bool {
+        self.star[u as usize]
+            .iter()
+            .any(|&i| self.tris[i as usize].contains(&v))
+    }
+
+    /// Every live edge once.
     pub fn edges(&self) -> Vec<EdgeKey> {
         let mut out: Vec<EdgeKey> = self
             .live_tris()
@@ -248,7 +255,7 @@ impl DynMesh {
         if c == d
             || self.star[a as usize].len() <= 3
             || self.star[b as usize].len() <= 3
-            || self.neighbours(c).binary_search(&d).is_ok()
+            || self.adjacent(c, d)
         {
             return None;
         }

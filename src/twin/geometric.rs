@@ -18,7 +18,7 @@
 //! both triangles of an edge share its midpoint: no T-vertices, and a
 //! closed oriented mesh stays closed and oriented.
 
-use std::collections::HashMap;
+use rustc_hash::{FxHashMap as HashMap, FxHashSet};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -49,8 +49,11 @@ pub fn refine(
     if alpha_deg <= -180.0 || passes == 0 {
         return (mesh, stats);
     }
+    // ∇f/‖∇f‖ at each triangle's centroid; NaN until computed (a
+    // triangle that a pass leaves whole keeps its normal).
+    let mut tri_n = vec![DVec3::NAN; mesh.triangles.len()];
     for _ in 0..passes {
-        let marked = mark(&mesh, field, cos_a);
+        let marked = mark(&mesh, field, cos_a, &mut tri_n);
         if marked.is_empty() {
             break;
         }
@@ -65,7 +68,8 @@ pub fn refine(
             })
             .collect();
         let first_new = mesh.positions.len();
-        let mut mid_of: HashMap<EdgeKey, u32> = HashMap::with_capacity(mids.len());
+        let mut mid_of: HashMap<EdgeKey, u32> =
+            HashMap::with_capacity_and_hasher(mids.len(), Default::default());
         for (e, s) in mids {
             if let Some((p, g)) = s {
                 mid_of.insert(e, mesh.positions.len() as u32);
@@ -79,12 +83,16 @@ pub fn refine(
         // unmarked and the triangles around it are redone.
         let old = std::mem::take(&mut mesh.triangles);
         let mut tris = Vec::with_capacity(old.len() * 2);
+        let mut normals = Vec::with_capacity(old.len() * 2);
         loop {
             tris.clear();
+            normals.clear();
             let mut undo = Vec::new();
-            for &t in &old {
+            for (&t, &n) in old.iter().zip(&tri_n) {
                 let start = tris.len();
                 subdivide(&mesh, t, &mid_of, &mut tris);
+                let kept = tris.len() == start + 1 && tris[start] == t;
+                normals.resize(tris.len(), if kept { n } else { DVec3::NAN });
                 if tris.len() > start + 1 && tris[start..].iter().any(|&n| inverted(&mesh, n)) {
                     for k in 0..3 {
                         undo.push(key(t[k], t[(k + 1) % 3]));
@@ -99,8 +107,9 @@ pub fn refine(
             }
         }
         mesh.triangles = tris;
+        tri_n = normals;
         // Midpoints no edge kept stay in the vertex list unused; drop them.
-        let used: std::collections::HashSet<u32> = mid_of.values().copied().collect();
+        let used: FxHashSet<u32> = mid_of.values().copied().collect();
         compact_new(&mut mesh, first_new, &used);
         if mid_of.is_empty() {
             break;
@@ -120,7 +129,7 @@ fn inverted(mesh: &Mesh, t: [u32; 3]) -> bool {
 
 /// Removes the vertices from `first` on that are not in `used`,
 /// renumbering the later ones in the triangles.
-fn compact_new(mesh: &mut Mesh, first: usize, used: &std::collections::HashSet<u32>) {
+fn compact_new(mesh: &mut Mesh, first: usize, used: &FxHashSet<u32>) {
     let mut remap: Vec<u32> = (0..mesh.positions.len() as u32).collect();
     let mut w = first;
     for (r, slot) in remap.iter_mut().enumerate().skip(first) {
@@ -143,24 +152,24 @@ fn compact_new(mesh: &mut Mesh, first: usize, used: &std::collections::HashSet<u
 }
 
 /// The edges to refine in this pass (sorted, each once).
-fn mark(mesh: &Mesh, field: &dyn Field, cos_a: f64) -> Vec<EdgeKey> {
+fn mark(mesh: &Mesh, field: &dyn Field, cos_a: f64, tri_normals: &mut [DVec3]) -> Vec<EdgeKey> {
     let n = &mesh.normals;
-    let tri_normals: Vec<DVec3> = mesh
-        .triangles
-        .par_iter()
-        .map(|t| {
+    tri_normals
+        .par_iter_mut()
+        .zip(&mesh.triangles)
+        .filter(|(tn, _)| tn.is_nan())
+        .for_each(|(tn, t)| {
             let c = t.iter().map(|&v| mesh.positions[v as usize]).sum::<DVec3>() / 3.0;
             let (_, g) = field.gradient(c);
             let g = g.normalize_or_zero();
-            if g == DVec3::ZERO {
-                mesh.face_normal(*t).normalize_or_zero()
-            } else {
+            *tn = if g.is_finite() && g != DVec3::ZERO {
                 g
-            }
-        })
-        .collect();
+            } else {
+                mesh.face_normal(*t).normalize_or_zero()
+            };
+        });
     let mut edge_tris: HashMap<EdgeKey, [u32; 2]> =
-        HashMap::with_capacity(mesh.triangles.len() * 2);
+        HashMap::with_capacity_and_hasher(mesh.triangles.len() * 2, Default::default());
     for (i, t) in mesh.triangles.iter().enumerate() {
         for k in 0..3 {
             let e = key(t[k], t[(k + 1) % 3]);

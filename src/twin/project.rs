@@ -8,11 +8,13 @@
 //! when it would leave the ball of radius `max_dist` around `p₀`, when `f`
 //! or `∇f` is not finite, or when a step fails to reduce `|f|` even after
 //! halving. As soon as a step crosses the surface (the sign of `f`
-//! changes), the zero is bracketed by that one short step and refined by
-//! bisection ([`crate::mesh::roots::bisect`]), so the point lands on the
-//! sheet it was walking towards and never jumps to another one. The result
-//! is on the surface to machine precision: either a bisection bracket of
-//! one ulp, or a Newton step shorter than a few ulps of the coordinates.
+//! changes), the zero is bracketed by that one short step and found by a
+//! safeguarded Newton iteration inside the bracket (bisection whenever
+//! Newton would leave it), so the point lands on the sheet it was walking
+//! towards and never jumps to another one. The result is on the surface
+//! to machine precision: the last Newton step (or the bracket) is a few
+//! ulps of the coordinates. Every step costs one value-and-gradient
+//! evaluation.
 
 use glam::DVec3;
 
@@ -45,32 +47,28 @@ pub fn newton(f: &dyn Field, p0: DVec3, max_dist: f64, max_step: f64) -> Option<
         if len > max_step {
             step *= max_step / len;
         }
-        let tiny = 4.0 * f64::EPSILON * p.abs().max_element().max(f64::MIN_POSITIVE);
+        let tiny = tiny(p);
         let mut halvings = 0;
         loop {
             let q = p + step;
             if q.distance(p0) > max_dist {
                 return None;
             }
-            let fq = f.value(q);
+            let (fq, gq) = f.gradient(q);
             if fq.is_nan() {
                 return None;
             }
             if fq == 0.0 {
-                let (_, gq) = f.gradient(q);
                 return Some(OnSurface { pos: q, grad: gq });
             }
             if (fq < 0.0) != (fp < 0.0) {
-                let r = bisect(f, p, q, fp, fq);
-                let (_, gr) = f.gradient(r);
-                return Some(OnSurface { pos: r, grad: gr });
+                return Some(bracketed(f, p, fp, q, fq, gq));
             }
             if step.length() <= tiny {
-                let (_, gq) = f.gradient(q);
                 return Some(OnSurface { pos: q, grad: gq });
             }
             if fq.abs() < fp.abs() {
-                p = q;
+                (p, fp, g) = (q, fq, gq);
                 break;
             }
             halvings += 1;
@@ -79,9 +77,59 @@ pub fn newton(f: &dyn Field, p0: DVec3, max_dist: f64, max_step: f64) -> Option<
             }
             step *= 0.5;
         }
-        (fp, g) = f.gradient(p);
     }
     None
+}
+
+/// A few ulps of `p`'s largest coordinate: steps below this are noise.
+fn tiny(p: DVec3) -> f64 {
+    4.0 * f64::EPSILON * p.abs().max_element().max(f64::MIN_POSITIVE)
+}
+
+/// The zero on the segment `a → b`, where `f` changes sign (`fb`, `gb`
+/// at `b`): Newton's method on `s ↦ f(a + s·u)` from `b`, each step kept
+/// inside the shrinking sign-change bracket, bisecting when Newton would
+/// leave it (a "safe" Newton, one gradient evaluation per step).
+fn bracketed(f: &dyn Field, a: DVec3, fa: f64, b: DVec3, fb: f64, gb: DVec3) -> OnSurface {
+    let len = a.distance(b);
+    let u = (b - a) / len;
+    let neg_at_lo = fa < 0.0;
+    let (mut lo, mut hi) = (0.0, len);
+    let (mut s, mut fs, mut gs) = (len, fb, gb);
+    let tiny = tiny(a.abs().max(b.abs()));
+    for _ in 0..200 {
+        let slope = gs.dot(u);
+        let mut next = s - fs / slope;
+        if !(next > lo && next < hi) {
+            next = 0.5 * (lo + hi);
+        }
+        if next == s || hi - lo <= tiny {
+            break;
+        }
+        let x = a + u * next;
+        let (fx, gx) = f.gradient(x);
+        if fx.is_nan() {
+            // Undefined inside the bracket: plain bisection copes.
+            let r = bisect(f, a, b, fa, fb);
+            return OnSurface {
+                pos: r,
+                grad: f.gradient(r).1,
+            };
+        }
+        if fx == 0.0 || (next - s).abs() <= tiny {
+            return OnSurface { pos: x, grad: gx };
+        }
+        if (fx < 0.0) == neg_at_lo {
+            lo = next;
+        } else {
+            hi = next;
+        }
+        (s, fs, gs) = (next, fx, gx);
+    }
+    OnSurface {
+        pos: a + u * s,
+        grad: gs,
+    }
 }
 
 #[cfg(test)]

@@ -33,7 +33,7 @@
 //! leaves behind are repaired at once. No vertex is touched twice in one
 //! sweep.
 
-use std::collections::{HashMap, HashSet};
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
 use glam::DVec3;
 
