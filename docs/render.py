@@ -2,7 +2,7 @@
 """Render an isoc PLY mesh to PNG with its per-vertex ambiguity colours
 (green: topology guaranteed, red: ambiguous cell), flat-shaded.
 
-    python3 docs/render.py mesh.ply out.png [--elev 20 --azim -60]
+    python3 docs/render.py mesh.ply out.png [--elev 20 --azim -60] [--edges]
 
 Needs numpy and matplotlib (pip install numpy matplotlib). It reads the
 binary PLY layout that `isoc mesh` writes (SPEC §3) and nothing else.
@@ -37,6 +37,7 @@ def main():
     ap.add_argument("png")
     ap.add_argument("--elev", type=float, default=20)
     ap.add_argument("--azim", type=float, default=-60)
+    ap.add_argument("--edges", action="store_true", help="draw triangle edges")
     a = ap.parse_args()
     v, f = read_ply(a.ply)
     p = v["p"].astype(float)
@@ -50,7 +51,10 @@ def main():
     fc = np.clip(col * shade[:, None], 0, 1)
     fig = plt.figure(figsize=(6, 6), dpi=110)
     ax = fig.add_subplot(projection="3d")
-    ax.add_collection3d(Poly3DCollection(tri, facecolors=fc, edgecolors="none"))
+    edges = (0, 0, 0, 0.6) if a.edges else "none"
+    ax.add_collection3d(
+        Poly3DCollection(tri, facecolors=fc, edgecolors=edges, linewidths=0.2)
+    )
     lo, hi = p.min(axis=0), p.max(axis=0)
     c, r = (lo + hi) / 2, (hi - lo).max() / 2
     ax.set_xlim(c[0] - r, c[0] + r)

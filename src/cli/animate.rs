@@ -29,7 +29,7 @@ pub struct AnimateArgs {
     /// α_r in degrees: refine the geometric mesh where normals turn by more (−180: no refinement).
     #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
     pub alpha: f64,
-    /// N_p: most refinement passes of the geometric mesh.
+    /// N_p: most refinement passes of the geometric mesh (at most 12).
     #[arg(long, default_value_t = 4)]
     pub passes: usize,
     /// Young's modulus E of the mechanical elements.
@@ -94,8 +94,8 @@ pub(super) fn run(
         watch: !a.no_watch,
         ..TwinOptions::default()
     };
-    std::fs::create_dir_all(&a.output).map_err(io_err(&a.output.display().to_string()))?;
     let mut tracker = Tracker::new(&surface, a.t0, &opts)?;
+    std::fs::create_dir_all(&a.output).map_err(io_err(&a.output.display().to_string()))?;
     let bar = indicatif::ProgressBar::with_draw_target(
         Some(a.frames as u64),
         indicatif::ProgressDrawTarget::stderr(),

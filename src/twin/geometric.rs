@@ -16,7 +16,9 @@
 //! triangle is cut along the diagonal whose ends have the closer normals,
 //! i.e. along the direction of least curvature. Marks are per edge, so
 //! both triangles of an edge share its midpoint: no T-vertices, and a
-//! closed oriented mesh stays closed and oriented.
+//! closed oriented mesh stays closed and oriented. A pass that could take
+//! the mesh beyond [`TRIANGLE_BUDGET`] times the mechanical mesh's size is
+//! not started (sharp creases mark edges on every pass).
 
 use rustc_hash::{FxHashMap as HashMap, FxHashSet};
 
@@ -33,7 +35,14 @@ use crate::mesh::roots::Field;
 pub struct RefineStats {
     pub passes: usize,
     pub splits: usize,
+    /// Refinement stopped at the triangle budget rather than for lack of
+    /// marked edges or passes.
+    pub budget_hit: bool,
 }
+
+/// The geometric mesh never exceeds this many times the mechanical mesh's
+/// triangles.
+pub const TRIANGLE_BUDGET: usize = 64;
 
 /// Refines `mech` (whose normals are the unit gradients at its vertices);
 /// see the module doc.
@@ -52,9 +61,13 @@ pub fn refine(
     // ∇f/‖∇f‖ at each triangle's centroid; NaN until computed (a
     // triangle that a pass leaves whole keeps its normal).
     let mut tri_n = vec![DVec3::NAN; mesh.triangles.len()];
+    let budget = mech.triangles.len().saturating_mul(TRIANGLE_BUDGET);
     for _ in 0..passes {
         let marked = mark(&mesh, field, cos_a, &mut tri_n);
-        if marked.is_empty() {
+        // A pass adds at most 3 triangles per marked edge; stop before the
+        // budget could be exceeded (a crease marks edges on every pass).
+        if marked.is_empty() || mesh.triangles.len() + 3 * marked.len() > budget {
+            stats.budget_hit = !marked.is_empty();
             break;
         }
         // Project the midpoints (in parallel).

@@ -148,6 +148,8 @@ pub struct FrameReport {
     pub collapses: usize,
     pub flips: usize,
     pub geometric_splits: usize,
+    /// The geometric refinement stopped at its triangle budget.
+    pub geometric_budget_hit: bool,
     /// Triangles found inverted after this frame's first step.
     pub inverted_found: usize,
     /// Of those, the ones the recovery steps turned back.
@@ -202,6 +204,18 @@ impl<'s> Tracker<'s> {
         let positive = |x: f64| x.is_finite() && x > 0.0;
         if !positive(edge) {
             return Err(usage(format!("--edge must be positive, got {edge}")));
+        }
+        if edge < side / 1000.0 {
+            return Err(usage(format!(
+                "--edge {edge} is below the domain's largest side / 1000 ({}): the mechanical mesh would need millions of triangles",
+                side / 1000.0
+            )));
+        }
+        if opts.passes > MAX_PASSES {
+            return Err(usage(format!(
+                "--passes {} is above {MAX_PASSES} (each pass can double the geometric mesh)",
+                opts.passes
+            )));
         }
         if !t0.is_finite() {
             return Err(usage(format!("time must be finite, got {t0}")));
@@ -366,7 +380,15 @@ impl<'s> Tracker<'s> {
 
         // 1. Topology watch.
         let t0 = Instant::now();
-        if self.opts.watch && t != self.t {
+        // A surface that does not depend on t cannot change (the program
+        // is simplified and dead-code free, so an unused t is absent).
+        let moves = self
+            .surface
+            .program
+            .insts
+            .iter()
+            .any(|op| matches!(op, crate::ir::Op::Var(crate::ir::Var::T)));
+        if self.opts.watch && moves && t != self.t {
             let interval = Interval {
                 lo: self.t.min(t),
                 hi: self.t.max(t),
@@ -468,6 +490,7 @@ impl<'s> Tracker<'s> {
         let t0 = Instant::now();
         let (geo, gs) = geometric::refine(&mech, &field, self.opts.alpha_deg, self.opts.passes);
         rep.geometric_splits = gs.splits;
+        rep.geometric_budget_hit = gs.budget_hit;
         self.geometric = geo;
         rep.ms.geometric = ms(t0);
 
@@ -683,6 +706,9 @@ impl<'s> Tracker<'s> {
         }
     }
 }
+
+/// Most refinement passes accepted.
+pub const MAX_PASSES: usize = 12;
 
 /// Applications of eq. 4 per step (each from the planes of the last).
 const SHARP_ITERATIONS: usize = 5;
