@@ -3,6 +3,9 @@
 //! (single, batch of 256), and compile time of all kernels.
 //!
 //! Run: `cargo bench --bench kernels` (filter e.g. `-- heart/`).
+//! `cargo bench --bench kernels -- simd/` times the batch point kernel,
+//! F64X2 (`JitOptions::simd`, the default) against the scalar loop, on
+//! corpus files.
 //! Set `ISOC_BENCH_NO_INTERP=1` to skip the interpreter rows.
 
 use std::hint::black_box;
@@ -10,7 +13,7 @@ use std::hint::black_box;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use isoc::interval::Interval;
 use isoc::ir::{BinOp, Builder, Const, Program, Value, Var};
-use isoc::jit::Kernels;
+use isoc::jit::{JitOptions, Kernels};
 
 /// The formulas, built with the IR builder (same shape as the corpus).
 pub fn formulas() -> Vec<(&'static str, Program)> {
@@ -180,5 +183,45 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench);
+/// Batch point kernel, F64X2 vs scalar loop, on corpus files (1024
+/// points along a diagonal of the domain's cube `[-1.2, 1.2]^3`).
+fn bench_simd(c: &mut Criterion) {
+    for name in [
+        "sphere",
+        "heart",
+        "torus_fig1",
+        "twotorus",
+        "chair_mid",
+        "blobs_merge",
+    ] {
+        let path = format!("{}/corpus/{name}.iso", env!("CARGO_MANIFEST_DIR"));
+        let src = std::fs::read_to_string(&path).expect("corpus file");
+        let lowered = isoc::syntax::front_end(&src, &path, &isoc::CompileOptions::default())
+            .expect("front end");
+        let prog = lowered.program;
+        let mut g = c.benchmark_group(format!("simd/{name}"));
+        const N: usize = 1024;
+        let xs: Vec<f64> = (0..N).map(|i| -1.2 + 2.4 * i as f64 / N as f64).collect();
+        let ys: Vec<f64> = xs.iter().map(|x| 0.7 * x).collect();
+        let zs: Vec<f64> = xs.iter().map(|x| -0.3 * x).collect();
+        let mut out = vec![0.0; N];
+        g.throughput(Throughput::Elements(N as u64));
+        for (label, simd) in [("x2", true), ("scalar", false)] {
+            let opts = JitOptions {
+                simd,
+                ..JitOptions::default()
+            };
+            let k = Kernels::compile_with(&prog, &opts).expect("compile");
+            g.bench_function(BenchmarkId::new(format!("point_batch/{label}"), N), |b| {
+                b.iter(|| {
+                    k.point_batch(&xs, &ys, &zs, black_box(0.0), &mut out)
+                        .expect("batch")
+                })
+            });
+        }
+        g.finish();
+    }
+}
+
+criterion_group!(benches, bench, bench_simd);
 criterion_main!(benches);
