@@ -11,7 +11,9 @@
 //!
 //! - **point**: bit for bit the reference evaluator [`crate::eval::point`]
 //!   (same IEEE operations in the same order; transcendentals call the same
-//!   Rust functions);
+//!   Rust functions; one exception: the sign of a zero from `min`/`max`
+//!   of `+0` and `−0`, where the kernels order `−0 < +0` and Rust's
+//!   `f64::min`/`max` may return either);
 //! - **interval**: an enclosure of the function over the box, outward
 //!   rounded (see [`rounding`] for the strategy and why), plus the flag
 //!   "defined and continuous on the whole box" (as [`DecInterval::defined`]);
@@ -64,12 +66,15 @@
 //! helper calls dominate) 1.12. With `simd: false` the batch loop is the
 //! scalar body once per point.
 //!
-//! Not done: the interval kernel in the `[-lo, hi]` `F64X2` representation
-//! (one vector op for both bounds of `add`/`sub`/`neg`). Its bounds live
-//! in separate scalar registers and the products, which dominate its cost,
-//! need four products and min/max, not one vector op; packing around single
-//! ops would add shuffles. Not tried or measured for lack of time (see
-//! `docs/jit.md`).
+//! (A second, noisier run: 1.35, 1.57, 1.76, 1.44, 1.31, 1.12.)
+//!
+//! Tried and dropped: interval `add`/`sub` as one `F64X2` TwoSum and
+//! lane-wise Rump successor on `[-lo, hi]` (`-lower(lo) = upper(-lo)`),
+//! packing before and unpacking after each op since the interval kernel
+//! keeps `lo` and `hi` in scalar registers. Interval batch, scalar / F64X2:
+//! sphere 1.28, heart 0.84, torus_fig1 1.01, twotorus 1.17, chair_mid 1.12,
+//! blobs_merge 1.20 (under load) — mixed, and not bit for bit the scalar
+//! bounds (`x − x` gave a lower bound `−0`). See `docs/jit.md` ("SIMD").
 //!
 //! # Constants
 //!
