@@ -89,7 +89,7 @@ fn twin(c: &mut Criterion) {
             })
         });
 
-        let mech = tm.mechanical();
+        let mech = tm.mechanical().clone();
         let field = SurfaceField { surface: &s, t: tt };
         g.bench_function(format!("geometric/{name}"), |b| {
             b.iter(|| {

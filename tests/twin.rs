@@ -53,7 +53,7 @@ fn inverted(s: &Surface, mesh: &Mesh, t: f64) -> usize {
 fn check_frame(s: &Surface, tr: &Tracker, rep: &FrameReport, k: usize, comps: usize, genus: i64) {
     let t = rep.t;
     for (name, mesh) in [
-        ("mechanical", &tr.mechanical()),
+        ("mechanical", tr.mechanical()),
         ("geometric", tr.geometric()),
     ] {
         let r = max_residual(s, mesh, t);
@@ -220,7 +220,7 @@ fn geometric_mesh_is_finer_where_curvature_is_high() {
     let geo = tr.geometric();
     let mech = tr.mechanical();
     let (gt, gf) = (density(geo, &tips), density(geo, &flanks));
-    let (mt, mf) = (density(&mech, &tips), density(&mech, &flanks));
+    let (mt, mf) = (density(mech, &tips), density(mech, &flanks));
     // The mechanical mesh is uniform; the geometric one is not.
     assert!((mt / mf - 1.0).abs() < 0.35, "mechanical {mt} vs {mf}");
     assert!(
@@ -346,10 +346,10 @@ fn sharp_feature_constraint_aligns_triangles_with_the_gradient() {
         for k in 0..8 {
             let rep = tr.advance(0.0).expect("frame");
             let mesh = tr.mechanical();
-            assert!(max_residual(&s, &mesh, 0.0) < 1e-9, "frame {k}");
-            assert!(analyze(&mesh).watertight, "frame {k}: {rep:?}");
+            assert!(max_residual(&s, mesh, 0.0) < 1e-9, "frame {k}");
+            assert!(analyze(mesh).watertight, "frame {k}: {rep:?}");
         }
-        misalignment(&s, &tr.mechanical())
+        misalignment(&s, tr.mechanical())
     };
     let (off, on) = (run(false), run(true));
     eprintln!("misalignment with eq. 4: {on}, without: {off}");

@@ -113,7 +113,7 @@ pub(super) fn run(
         };
         let rep = tracker.advance(t)?;
         write_frame(&a.output, "geometric", k, tracker.geometric())?;
-        write_frame(&a.output, "mechanical", k, &tracker.mechanical())?;
+        write_frame(&a.output, "mechanical", k, tracker.mechanical())?;
         bar.set_message(format!(
             "t = {t:.4}: {} / {} triangles",
             rep.mechanical_triangles, rep.geometric_triangles

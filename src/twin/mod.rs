@@ -182,6 +182,8 @@ pub struct Tracker<'s> {
     edges: remesh::EdgeState,
     topo: (usize, Vec<Option<i64>>),
     t: f64,
+    /// The mechanical mesh as handed out (compacted), rebuilt once a frame.
+    mechanical: Mesh,
     geometric: Mesh,
 }
 
@@ -256,11 +258,13 @@ impl<'s> Tracker<'s> {
             edges: remesh::EdgeState::default(),
             topo: (0, Vec::new()),
             t: t0,
+            mechanical: Mesh::default(),
             geometric: Mesh::default(),
         };
         let (mesh, topo) = tracker.robust(t0, 0);
         tracker.reinit(&mesh, topo, t0);
-        tracker.geometric = tracker.mesh.to_mesh();
+        tracker.mechanical = tracker.mesh.to_mesh();
+        tracker.geometric = tracker.mechanical.clone();
         Ok(tracker)
     }
 
@@ -274,9 +278,9 @@ impl<'s> Tracker<'s> {
         self.edge
     }
 
-    /// The mechanical mesh (normals: unit gradients).
-    pub fn mechanical(&self) -> Mesh {
-        self.mesh.to_mesh()
+    /// The mechanical mesh of the last frame (normals: unit gradients).
+    pub fn mechanical(&self) -> &Mesh {
+        &self.mechanical
     }
 
     /// The geometric mesh of the last frame.
@@ -483,12 +487,13 @@ impl<'s> Tracker<'s> {
             self.compact();
         }
         self.t = t;
-        let mech = self.mesh.to_mesh();
+        self.mechanical = self.mesh.to_mesh();
+        let mech = &self.mechanical;
         rep.ms.mechanical = ms(t0);
 
         // 6. Geometric mesh.
         let t0 = Instant::now();
-        let (geo, gs) = geometric::refine(&mech, &field, self.opts.alpha_deg, self.opts.passes);
+        let (geo, gs) = geometric::refine(mech, &field, self.opts.alpha_deg, self.opts.passes);
         rep.geometric_splits = gs.splits;
         rep.geometric_budget_hit = gs.budget_hit;
         self.geometric = geo;
@@ -498,7 +503,7 @@ impl<'s> Tracker<'s> {
         rep.mechanical_vertices = mech.positions.len();
         rep.geometric_triangles = self.geometric.triangles.len();
         rep.geometric_vertices = self.geometric.positions.len();
-        rep.aspect_good = quality::aspect_good(&mech);
+        rep.aspect_good = quality::aspect_good(mech);
         rep.components = self.topo.0;
         rep.genus = self.topo.1.clone();
         rep.ms.total = ms(start);
