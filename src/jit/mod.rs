@@ -395,19 +395,21 @@ impl Env<'_> {
         self.call(1, &[c, a, b])
     }
 
+    /// The stack slot cached in `cache`, created (`size` bytes, 16-byte
+    /// aligned) on first use, so a kernel has one whatever the number of
+    /// helper calls.
+    fn lazy_slot(
+        b: &mut FunctionBuilder,
+        cache: &mut Option<clif::StackSlot>,
+        size: u32,
+    ) -> clif::StackSlot {
+        *cache.get_or_insert_with(|| {
+            b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, size, 4))
+        })
+    }
+
     fn iv_out(&mut self) -> Value {
-        let slot = match self.iv_slot {
-            Some(s) => s,
-            None => {
-                let s = self.b.create_sized_stack_slot(StackSlotData::new(
-                    StackSlotKind::ExplicitSlot,
-                    16,
-                    4,
-                ));
-                self.iv_slot = Some(s);
-                s
-            }
-        };
+        let slot = Self::lazy_slot(&mut self.b, &mut self.iv_slot, 16);
         self.b.ins().stack_addr(self.ptr, slot, 0)
     }
 

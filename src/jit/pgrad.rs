@@ -35,9 +35,7 @@
 //! results are reproduced exactly.
 
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
-use cranelift_codegen::ir::{
-    self as clif, InstBuilder, StackSlotData, StackSlotKind, Value, types,
-};
+use cranelift_codegen::ir::{self as clif, InstBuilder, Value, types};
 
 use super::Env;
 use super::helpers::{self, PG_BINARY_BASE, PG_OP};
@@ -202,18 +200,7 @@ fn binary(env: &mut Env, op: BinOp, a: Dual, b: Dual) -> Dual {
 /// Calls `isoc_pg_op(code, a, b, out)` through a 96-byte stack slot (`a` at
 /// 0, `b` at 32, `out` at 64).
 fn call_pg(env: &mut Env, code: u32, a: Dual, b: Option<Dual>) -> Dual {
-    let slot = match env.pg_slot {
-        Some(s) => s,
-        None => {
-            let s = env.b.create_sized_stack_slot(StackSlotData::new(
-                StackSlotKind::ExplicitSlot,
-                96,
-                4,
-            ));
-            env.pg_slot = Some(s);
-            s
-        }
-    };
+    let slot = Env::lazy_slot(&mut env.b, &mut env.pg_slot, 96);
     let f = Env::flags();
     let ptr = env.ptr;
     let pa = env.b.ins().stack_addr(ptr, slot, 0);
