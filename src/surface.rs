@@ -116,7 +116,9 @@ impl Surface {
         domain: Bounds,
         params: Vec<(String, f64)>,
     ) -> Result<Surface, Error> {
-        let kernels = Kernels::compile(&program).map_err(Error::Jit)?;
+        // Nothing is compiled yet: each kernel kind on first use (or by
+        // `Kernels::prepare`).
+        let kernels = Kernels::lazy(&program, &crate::jit::JitOptions::default()).map_err(Error::Jit)?;
         Ok(Surface {
             file: file.to_string(),
             program,

@@ -505,8 +505,9 @@ fn compile_info_is_reported() {
         },
     )
     .unwrap();
-    assert_eq!(k.info().len(), 6);
-    for i in k.info() {
+    // Point: single and batch; interval, gradient: batch only.
+    assert_eq!(k.info().len(), 4);
+    for i in &k.info() {
         assert!(i.code_bytes > 0, "{}", i.name);
         assert!(
             i.clif.as_deref().unwrap_or("").contains("fmul"),
@@ -591,4 +592,276 @@ fn kernels_are_send_and_sync() {
             });
         }
     });
+}
+
+// ------------------------------------------- the rounding-mode bracket
+
+#[path = "common/exact.rs"]
+mod exact;
+
+use isoc::jit::mxcsr;
+
+/// `exp(x)·y + sin(z)/(x + 2) + x·y` (helper calls between inline ops).
+fn helper_sandwich() -> Program {
+    Program {
+        insts: vec![
+            Op::Var(Var::X),                             // 0
+            Op::Var(Var::Y),                             // 1
+            Op::Var(Var::Z),                             // 2
+            Op::Unary(UnOp::Exp, Value(0)),              // 3 helper
+            Op::Binary(BinOp::Mul, Value(3), Value(1)),  // 4 inline
+            Op::Unary(UnOp::Sin, Value(2)),              // 5 helper
+            Op::Const(Const::exact(2.0)),                // 6
+            Op::Binary(BinOp::Add, Value(0), Value(6)),  // 7 inline
+            Op::Binary(BinOp::Div, Value(5), Value(7)),  // 8 helper
+            Op::Binary(BinOp::Add, Value(4), Value(8)),  // 9 inline
+            Op::Binary(BinOp::Mul, Value(0), Value(1)),  // 10 inline
+            Op::Binary(BinOp::Add, Value(9), Value(10)), // 11 inline
+        ],
+        output: Value(11),
+    }
+}
+
+fn some_boxes() -> Vec<[Interval; 4]> {
+    let mut v = Vec::new();
+    let mut s = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64 * 4.0 - 2.0
+    };
+    for _ in 0..200 {
+        let b: [Interval; 4] = std::array::from_fn(|_| {
+            let (a, c) = (next(), next() * 1e-3);
+            Interval {
+                lo: a,
+                hi: a + c.abs(),
+            }
+        });
+        v.push(b);
+    }
+    v
+}
+
+/// A kernel gives the caller back its MXCSR — rounding mode, flush-to-zero
+/// and sticky flags — and computes the same bounds whatever the caller's
+/// mode was (round down with FTZ/DAZ here).
+#[test]
+fn kernels_restore_the_callers_rounding_mode() {
+    let k = Kernels::compile(&helper_sandwich()).unwrap();
+    let boxes = some_boxes();
+    let want_iv: Vec<_> = boxes.iter().map(|b| k.interval(*b)).collect();
+    let want_gd: Vec<_> = boxes.iter().map(|b| k.grad(*b)).collect();
+    assert_eq!(mxcsr::current() & 0xFFC0, mxcsr::MXCSR_DEFAULT);
+    // Round down (RC = 01), FTZ (bit 15), DAZ (bit 6), flags clear.
+    let odd = 0x3F80 | 0x8000 | 0x0040;
+    let mut got_iv = Vec::new();
+    let mut got_gd = Vec::new();
+    let mut seen = Vec::new();
+    for b in &boxes {
+        // SAFETY: only the kernel call and `stmxcsr` run in this mode; the
+        // default is restored before any float work is checked.
+        unsafe { mxcsr::set(odd) };
+        let r = k.interval(*b);
+        seen.push(mxcsr::current());
+        unsafe { mxcsr::set(odd) };
+        let g = k.grad(*b);
+        seen.push(mxcsr::current());
+        unsafe { mxcsr::set(mxcsr::MXCSR_DEFAULT) };
+        got_iv.push(r);
+        got_gd.push(g);
+    }
+    unsafe { mxcsr::set(mxcsr::MXCSR_DEFAULT) };
+    for m in seen {
+        assert_eq!(m, odd, "caller's MXCSR {odd:#x} came back as {m:#x}");
+    }
+    for (w, g) in want_iv.iter().zip(&got_iv) {
+        assert_eq!(
+            (w.iv.lo.to_bits(), w.iv.hi.to_bits(), w.defined),
+            (g.iv.lo.to_bits(), g.iv.hi.to_bits(), g.defined)
+        );
+    }
+    for (w, g) in want_gd.iter().zip(&got_gd) {
+        let bits = |e: &isoc::eval::GradEval| {
+            std::iter::once(e.value)
+                .chain(e.grad)
+                .flat_map(|i| [i.lo.to_bits(), i.hi.to_bits()])
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(w), bits(g));
+    }
+    // The batch entry points too.
+    let mut input = Vec::new();
+    for b in &boxes {
+        input.extend(b.iter().flat_map(|i| [i.lo, i.hi]));
+    }
+    let mut out = vec![0.0; 2 * boxes.len()];
+    let mut def = vec![false; boxes.len()];
+    unsafe { mxcsr::set(odd) };
+    k.interval_batch(&input, &mut out, &mut def).unwrap();
+    let m = mxcsr::current();
+    unsafe { mxcsr::set(mxcsr::MXCSR_DEFAULT) };
+    assert_eq!(m, odd);
+    for (i, w) in want_iv.iter().enumerate() {
+        assert_eq!(out[2 * i].to_bits(), w.iv.lo.to_bits());
+        assert_eq!(out[2 * i + 1].to_bits(), w.iv.hi.to_bits());
+    }
+}
+
+/// Helpers called in the middle of a kernel run in round to nearest (their
+/// enclosures are bit for bit the reference interpreter's, which runs in
+/// the default mode), and the inline ops after them in round up again
+/// (directed rounding gives exactly the reference's bounds for `+` and `·`
+/// in the normal range; round to nearest would fall inside them on an
+/// inexact sum, which the enclosure checks below would catch).
+#[test]
+fn helpers_run_in_nearest_and_inline_ops_in_up() {
+    let p = helper_sandwich();
+    let k = Kernels::compile(&p).unwrap();
+    for b in some_boxes() {
+        let r = k.interval(b);
+        let want = isoc::eval::interval::eval(&p, b);
+        assert_eq!(
+            (r.iv.lo.to_bits(), r.iv.hi.to_bits()),
+            (want.iv.lo.to_bits(), want.iv.hi.to_bits()),
+            "{b:?}: jit {:?}, reference {:?}",
+            r.iv,
+            want.iv
+        );
+        let g = k.grad(b);
+        let gw = isoc::eval::grad::eval(&p, b);
+        for (x, y) in std::iter::once(g.value)
+            .chain(g.grad)
+            .zip(std::iter::once(gw.value).chain(gw.grad))
+        {
+            assert!(x.lo <= y.lo.max(x.lo) && x.lo <= y.hi && x.hi >= y.lo, "{x:?} vs {y:?}");
+        }
+    }
+}
+
+/// `+`, `−`, `·`, `√`, squares and small powers whose results are
+/// subnormal, tiny or overflow: the bounds enclose the exact result (exact
+/// dyadic arithmetic) and are the nearest floats around it.
+#[test]
+fn directed_rounding_at_the_edges_of_the_range() {
+    use exact::Dyadic;
+    let bin = |op: BinOp| Program {
+        insts: vec![
+            Op::Var(Var::X),
+            Op::Var(Var::Y),
+            Op::Binary(op, Value(0), Value(1)),
+        ],
+        output: Value(2),
+    };
+    let mul = Kernels::compile(&bin(BinOp::Mul)).unwrap();
+    let add = Kernels::compile(&bin(BinOp::Add)).unwrap();
+    let sub = Kernels::compile(&bin(BinOp::Sub)).unwrap();
+    let pt = |v: f64| Interval { lo: v, hi: v };
+    let tiny = [
+        f64::from_bits(1),
+        f64::from_bits(3),
+        2.5e-320,
+        1.0e-310,
+        2f64.powi(-1022),
+        3.0e-200,
+        7.0e-170,
+        1.0e-160,
+        0.1,
+        1.0 / 3.0,
+        -1.0e-300,
+        -3.3e-160,
+        1.0e200,
+        -2.0e250,
+        1.7e308,
+        f64::MAX,
+    ];
+    for &x in &tiny {
+        for &y in &tiny {
+            let b = [pt(x), pt(y), pt(0.0), pt(0.0)];
+            let r = mul.interval(b).iv;
+            let exact = Dyadic::of(x).mul(Dyadic::of(y));
+            assert!(exact.within(r.lo, r.hi), "{x:e}·{y:e} ∉ {r:?}");
+            // Tight: one float step at most on either side.
+            if r.lo.is_finite() && r.lo != r.hi {
+                assert!(!exact.within(r.lo.next_up(), r.hi), "{x:e}·{y:e}: lo {r:?} not tight");
+                assert!(!exact.within(r.lo, r.hi.next_down()), "{x:e}·{y:e}: hi {r:?} not tight");
+            }
+            if x * y == 0.0 && x != 0.0 && y != 0.0 {
+                assert!(r.lo < 0.0 || r.hi > 0.0, "an underflowed product keeps its sign's side");
+            }
+            for (k, neg) in [(&add, false), (&sub, true)] {
+                let r = k.interval(b).iv;
+                let y2 = if neg { -y } else { y };
+                if let Some(e) = Dyadic::of(x).add(Dyadic::of(y2)) {
+                    assert!(e.within(r.lo, r.hi), "{x:e} ± {y:e} ∉ {r:?}");
+                    if r.lo.is_finite() && r.hi.is_finite() && r.lo != r.hi {
+                        assert!(!e.within(r.lo.next_up(), r.hi), "{x:e}±{y:e}: {r:?}");
+                        assert!(!e.within(r.lo, r.hi.next_down()), "{x:e}±{y:e}: {r:?}");
+                    }
+                }
+            }
+        }
+    }
+    // Overflow: an upper bound goes to +∞, a lower bound of a positive
+    // overflowing product stays finite (MAX), and vice versa.
+    let r = mul.interval([pt(1e300), pt(1e300), pt(0.0), pt(0.0)]).iv;
+    assert_eq!((r.lo, r.hi), (f64::MAX, f64::INFINITY));
+    let r = mul.interval([pt(-1e300), pt(1e300), pt(0.0), pt(0.0)]).iv;
+    assert_eq!((r.lo, r.hi), (f64::NEG_INFINITY, -f64::MAX));
+    // √ of subnormals and of exact squares.
+    let sq = Kernels::compile(&Program {
+        insts: vec![Op::Var(Var::X), Op::Unary(UnOp::Sqrt, Value(0))],
+        output: Value(1),
+    })
+    .unwrap();
+    for &x in &[f64::from_bits(1), 2.5e-320, 1.0e-310, 4.0e-320, 2.0, 0.25, 1.0] {
+        let r = sq.interval([pt(x), pt(0.0), pt(0.0), pt(0.0)]).iv;
+        let (lo2, hi2) = (Dyadic::of(r.lo).mul(Dyadic::of(r.lo)), Dyadic::of(r.hi).mul(Dyadic::of(r.hi)));
+        let xd = Dyadic::of(x);
+        assert!(lo2.cmp(xd).is_le() && hi2.cmp(xd).is_ge(), "√{x:e}: {r:?}");
+        assert!(r.lo == r.hi || r.lo.next_up() == r.hi, "√{x:e}: {r:?} not tight");
+    }
+}
+
+/// NaN and infinite inputs: a NaN bound means the whole line, undefined;
+/// infinite bounds give infinite enclosures, `0·∞` counts as 0.
+#[test]
+fn nan_and_infinite_inputs() {
+    let p = Program {
+        insts: vec![
+            Op::Var(Var::X),
+            Op::Var(Var::Y),
+            Op::Binary(BinOp::Mul, Value(0), Value(1)),
+            Op::Unary(UnOp::Exp, Value(2)),
+            Op::Binary(BinOp::Add, Value(3), Value(0)),
+        ],
+        output: Value(4),
+    };
+    let k = Kernels::compile(&p).unwrap();
+    let iv = |lo: f64, hi: f64| Interval { lo, hi };
+    let z = iv(0.0, 0.0);
+    let inf = f64::INFINITY;
+    let cases = [
+        [iv(f64::NAN, 1.0), iv(1.0, 2.0), z, z],
+        [iv(0.0, 1.0), iv(f64::NAN, f64::NAN), z, z],
+        [iv(0.0, 0.0), iv(-inf, inf), z, z],
+        [iv(0.0, 1.0), iv(1.0, inf), z, z],
+        [iv(-inf, inf), iv(-inf, inf), z, z],
+        [iv(-1.0, 0.0), iv(-inf, -1.0), z, z],
+    ];
+    for b in cases {
+        let r = k.interval(b);
+        let want = isoc::eval::interval::eval(&p, b);
+        assert_eq!(r.defined, want.defined, "{b:?}");
+        assert!(
+            r.iv.lo <= want.iv.lo && r.iv.hi >= want.iv.hi || (r.iv.lo.is_nan() && want.iv.lo.is_nan()),
+            "{b:?}: jit {:?} ⊉ reference {:?}",
+            r.iv,
+            want.iv
+        );
+    }
+    // [0,0]·[−∞,∞] = [0,0]: exp gives [1,1], plus x = [1, 1].
+    let r = k.interval([z, iv(-inf, inf), z, z]).iv;
+    assert_eq!((r.lo, r.hi), (1.0, 1.0));
 }

@@ -375,8 +375,9 @@ fn compiled_lazily_and_shareable() {
         output: Value(1),
     };
     let k = Kernels::compile(&prog).unwrap();
-    // The eager kernels only.
-    assert_eq!(k.info().len(), 6);
+    // The eager kernels only: point (single and batch), interval and
+    // gradient (batch entry points).
+    assert_eq!(k.info().len(), 4);
     assert!(k.info().iter().all(|i| i.kind != Kind::PointGrad));
     // Concurrent first uses compile once and agree.
     let r: Vec<(f64, [f64; 3])> = std::thread::scope(|s| {
@@ -388,16 +389,16 @@ fn compiled_lazily_and_shareable() {
     assert!(r.iter().all(|&x| x == r[0]));
     assert_eq!(r[0].0, r[0].1[0]);
     let info = k.point_grad_info().unwrap();
-    assert_eq!(info.len(), 2);
+    assert_eq!(info.len(), 1);
     assert!(
         info.iter()
             .all(|i| i.kind == Kind::PointGrad && i.code_bytes > 0)
     );
-    assert_eq!(info[0].name, "point_grad");
-    assert_eq!(info[1].name, "point_grad_batch");
-    let f = k.point_grad_fn().unwrap();
+    assert_eq!(info[0].name, "point_grad_batch");
+    let f = k.point_grad_batch_fn().unwrap();
     let mut out = [0.0; 4];
-    // SAFETY: the ABI of the single point-gradient kernel; `k` is alive.
-    unsafe { f(1.0, 0.0, 0.0, 0.0, out.as_mut_ptr()) };
+    // SAFETY: the ABI of the batch point-gradient kernel, one record; `k`
+    // is alive.
+    unsafe { f(&1.0, &0.0, &0.0, 0.0, out.as_mut_ptr(), 1) };
     assert_eq!(out, [r[0].0, r[0].1[0], r[0].1[1], r[0].1[2]]);
 }

@@ -207,10 +207,10 @@ fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result
                 ..Default::default()
             };
             let kernels =
-                crate::jit::Kernels::compile_with(&surface.program, &opts).map_err(Error::Jit)?;
-            let pg = kernels.point_grad_info().map_err(Error::Jit)?;
+                crate::jit::Kernels::lazy(&surface.program, &opts).map_err(Error::Jit)?;
+            kernels.prepare(&crate::jit::Kind::EVERY);
             let mut s = String::new();
-            for info in kernels.info().iter().chain(pg) {
+            for info in &kernels.info() {
                 let text = if kind == Emit::Clif {
                     &info.clif
                 } else {
@@ -239,17 +239,20 @@ fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result
                 s += &format!("  param {name} = {v}\n");
             }
             s += "  kernels (machine code, compile time):\n";
-            // The point-gradient kernel is compiled on first use; the
-            // summary asks for it.
             let k = surface.kernels();
-            let pg = k.point_grad_info().map_err(Error::Jit)?;
-            for info in k.info().iter().chain(pg) {
+            k.prepare(&crate::jit::Kind::EVERY);
+            for info in &k.info() {
                 s += &format!(
-                    "    {:<15} {:>7} bytes  {:>8.3} ms\n",
+                    "    {:<16} {:>8} bytes  {:>8.3} ms\n",
                     info.name,
                     info.code_bytes,
                     info.compile_time.as_secs_f64() * 1e3
                 );
+            }
+            for kind in crate::jit::Kind::EVERY {
+                if let crate::jit::Engine::Interpreter(why) = k.engine(kind) {
+                    s += &format!("    {:<16} interpreted ({why})\n", kind.name());
+                }
             }
             write(out, &s)
         }
@@ -364,6 +367,8 @@ fn mesh_command(
 
     let t0 = std::time::Instant::now();
     let surface = compile_file(args)?;
+    // Every kind `mesh` calls, compiled now and in parallel.
+    surface.kernels().prepare(&crate::jit::Kind::EVERY);
     let compile_ms = t0.elapsed().as_secs_f64() * 1e3;
 
     let bar =

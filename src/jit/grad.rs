@@ -18,7 +18,7 @@
 
 use cranelift_codegen::ir::{InstBuilder, Value};
 
-use super::Env;
+use super::{Env, rounding};
 use super::interval::{self, Flag, Iv};
 use crate::ir::{BinOp, Op, Program, UnOp};
 
@@ -59,11 +59,11 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
             Op::Unary(UnOp::Square, a) => {
                 let a = vals[a.index()].0;
                 let (f, _) = interval::unary(env, UnOp::Square, a[0]);
-                // d(a²) = (2a)·da; doubling is exact (or overflows to ±∞,
-                // which is still an enclosure).
+                // d(a²) = (2a)·da; doubling is exact but for overflow,
+                // which must go outward: the lower bound rounded down.
                 let two_a = (
-                    env.b.ins().fadd(a[0].0, a[0].0),
-                    env.b.ins().fadd(a[0].1, a[0].1),
+                    rounding::add_down(&mut env.b, a[0].0, a[0].0),
+                    rounding::add_up(&mut env.b, a[0].1, a[0].1),
                 );
                 let mut g = [f, z, z, z];
                 for k in 1..4 {

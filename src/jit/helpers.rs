@@ -1,6 +1,6 @@
 //! `extern "C"` Rust helpers that the kernels call for the operations they
 //! do not inline (transcendentals, division and a few others), registered
-//! with `JITBuilder::symbol` under the names in [`SYMBOLS`].
+//! with `JITBuilder::symbol` under the names of [`Helper`].
 //!
 //! Operation codes are indices into [`UnOp::ALL`] / [`BinOp::ALL`]; a code
 //! out of range gives NaN (point) or the whole real line, undefined
@@ -21,32 +21,123 @@
 //! rules in f64 on `[v, dx, dy, dz]` records: one call gives an op's value
 //! and its derivatives, bit for bit [`crate::eval::grad::eval_point`]'s.
 
+use cranelift_codegen::ir::Type;
+
+use super::mxcsr;
 use crate::eval::grad::{self, Dual};
 use crate::interval::{self, DecInterval, Interval};
 use crate::ir::{BinOp, Op, UnOp, Value};
 
-/// `(name, address)` of every helper, for `JITBuilder::symbols`.
-pub fn symbols() -> [(&'static str, *const u8); 8] {
-    [
-        (PT_UNARY, pt_unary as *const u8),
-        (PT_BINARY, pt_binary as *const u8),
-        (IV_UNARY, iv_unary as *const u8),
-        (IV_BINARY, iv_binary as *const u8),
-        (IV_POWI, iv_powi as *const u8),
-        (GD_UNARY, gd_unary as *const u8),
-        (GD_BINARY, gd_binary as *const u8),
-        (PG_OP, pg_op as *const u8),
-    ]
+/// Every routine a kernel can call: its symbol (registered with
+/// `JITBuilder::symbol`), its address and its Cranelift signature live
+/// here, in one place.
+///
+/// The interval and gradient helpers are called from kernels running in
+/// round-up mode, so their registered address is a trampoline
+/// ([`super::mxcsr::trampoline!`]) that runs the Rust function in round to
+/// nearest. The point and point-gradient helpers are called from kernels
+/// in the default mode and are registered directly.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Helper {
+    /// `fn(code: u32, a: f64) -> f64`: a unary op's point value.
+    PtUnary,
+    /// `fn(code: u32, a: f64, b: f64) -> f64`.
+    PtBinary,
+    /// `fn(code: u32, lo, hi: f64, out: *mut [f64; 2]) -> u8` (decoration).
+    IvUnary,
+    /// `fn(code: u32, alo, ahi, blo, bhi: f64, out: *mut [f64; 2]) -> u8`.
+    IvBinary,
+    /// `fn(lo, hi: f64, n: i64, out: *mut [f64; 2]) -> u8`.
+    IvPowi,
+    /// `fn(code: u32, a: *const [f64; 8], out: *mut [f64; 8]) -> u8`
+    /// (bit 0 value defined, bit 1 derivatives defined).
+    GdUnary,
+    /// `fn(code: u32, a, b: *const [f64; 8], n: i64, out: *mut [f64; 8]) -> u8`.
+    GdBinary,
+    /// `fn(code: u32, a, b: *const [f64; 4], out: *mut [f64; 4])`.
+    PgOp,
+    /// `fn(save: *mut u32)`: [`super::mxcsr::isoc_rm_enter`].
+    RmEnter,
+    /// `fn(save: *const u32)`: [`super::mxcsr::isoc_rm_leave`].
+    RmLeave,
 }
 
-pub const PT_UNARY: &str = "isoc_pt_unary";
-pub const PT_BINARY: &str = "isoc_pt_binary";
-pub const IV_UNARY: &str = "isoc_iv_unary";
-pub const IV_BINARY: &str = "isoc_iv_binary";
-pub const IV_POWI: &str = "isoc_iv_powi";
-pub const GD_UNARY: &str = "isoc_gd_unary";
-pub const GD_BINARY: &str = "isoc_gd_binary";
-pub const PG_OP: &str = "isoc_pg_op";
+impl Helper {
+    pub const ALL: [Helper; 10] = [
+        Helper::PtUnary,
+        Helper::PtBinary,
+        Helper::IvUnary,
+        Helper::IvBinary,
+        Helper::IvPowi,
+        Helper::GdUnary,
+        Helper::GdBinary,
+        Helper::PgOp,
+        Helper::RmEnter,
+        Helper::RmLeave,
+    ];
+
+    /// The symbol the kernels import.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Helper::PtUnary => "isoc_pt_unary",
+            Helper::PtBinary => "isoc_pt_binary",
+            Helper::IvUnary => "isoc_iv_unary",
+            Helper::IvBinary => "isoc_iv_binary",
+            Helper::IvPowi => "isoc_iv_powi",
+            Helper::GdUnary => "isoc_gd_unary",
+            Helper::GdBinary => "isoc_gd_binary",
+            Helper::PgOp => "isoc_pg_op",
+            Helper::RmEnter => "isoc_rm_enter",
+            Helper::RmLeave => "isoc_rm_leave",
+        }
+    }
+
+    /// The address behind [`Helper::symbol`].
+    pub fn address(self) -> *const u8 {
+        match self {
+            Helper::PtUnary => pt_unary as *const u8,
+            Helper::PtBinary => pt_binary as *const u8,
+            Helper::IvUnary => iv_unary_rn as *const u8,
+            Helper::IvBinary => iv_binary_rn as *const u8,
+            Helper::IvPowi => iv_powi_rn as *const u8,
+            Helper::GdUnary => gd_unary_rn as *const u8,
+            Helper::GdBinary => gd_binary_rn as *const u8,
+            Helper::PgOp => pg_op as *const u8,
+            Helper::RmEnter => mxcsr::isoc_rm_enter as *const u8,
+            Helper::RmLeave => mxcsr::isoc_rm_leave as *const u8,
+        }
+    }
+
+    /// Parameter and result types (`ptr` the pointer type).
+    pub fn types(self, ptr: Type) -> (Vec<Type>, Option<Type>) {
+        use cranelift_codegen::ir::types::{F64, I8, I32, I64};
+        match self {
+            Helper::PtUnary => (vec![I32, F64], Some(F64)),
+            Helper::PtBinary => (vec![I32, F64, F64], Some(F64)),
+            Helper::IvUnary => (vec![I32, F64, F64, ptr], Some(I8)),
+            Helper::IvBinary => (vec![I32, F64, F64, F64, F64, ptr], Some(I8)),
+            Helper::IvPowi => (vec![F64, F64, I64, ptr], Some(I8)),
+            Helper::GdUnary => (vec![I32, ptr, ptr], Some(I8)),
+            Helper::GdBinary => (vec![I32, ptr, ptr, I64, ptr], Some(I8)),
+            Helper::PgOp => (vec![I32, ptr, ptr, ptr], None),
+            Helper::RmEnter | Helper::RmLeave => (vec![ptr], None),
+        }
+    }
+
+    /// `(symbol, address)` of every helper, for `JITBuilder::symbols`.
+    pub fn symbols() -> impl Iterator<Item = (&'static str, *const u8)> {
+        Helper::ALL.into_iter().map(|h| (h.symbol(), h.address()))
+    }
+}
+
+// Round-to-nearest entry points of the helpers that round-up kernels call
+// (every argument travels in registers, as the trampoline requires).
+mxcsr::trampoline!(iv_unary_rn => iv_unary);
+mxcsr::trampoline!(iv_binary_rn => iv_binary);
+mxcsr::trampoline!(iv_powi_rn => iv_powi);
+mxcsr::trampoline!(gd_unary_rn => gd_unary);
+mxcsr::trampoline!(gd_binary_rn => gd_binary);
+
 /// `pg_op` codes at or above this are binary ops (minus it), below unary.
 pub const PG_BINARY_BASE: u32 = 1 << 16;
 /// `gd_binary` op code standing for `powi` (with `n` passed as the second

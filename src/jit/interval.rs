@@ -4,19 +4,18 @@
 //! accumulator for the decoration "defined and continuous on the whole box"
 //! (the AND of every op's flag).
 //!
-//! Inline, outward rounded with [`super::rounding`] (`down`/`up`: the
-//! round-to-nearest result moved one ulp outward only when its error-free
-//! transformation says it was inexact):
+//! Inline, outward rounded with [`super::rounding`] (the kernel runs in
+//! round-toward-+∞ mode; a lower bound is `RD(x) = −RU(−x)`):
 //!
 //! | op | rule |
 //! |---|---|
 //! | `neg`, `min`, `max` | exact bound arithmetic |
 //! | `abs` | `[max(0, lo, −hi), max(−lo, hi)]`, exact |
-//! | `add`, `sub` | `[down(al + bl), up(ah + bh)]`, `[down(al − bh), up(ah − bl)]` |
-//! | `mul` | min/max of the four products (a NaN product `0·∞` counts as 0), widened |
-//! | `square` | `[down(mig²) ∨ 0, up(mag²)]` |
-//! | `sqrt` | `[down(√max(lo,0)) ∨ 0, up(√hi)]`, empty when `hi < 0`; defined iff `lo ≥ 0` |
-//! | `powi a n`, `1 ≤ n ≤ 8` | exact monotone rules on `mig`/`mag` (even `n`) or the signed bounds (odd `n`), each product of the repeated squaring widened in its direction |
+//! | `add`, `sub` | `[RD(al + bl), RU(ah + bh)]`, `[RD(al − bh), RU(ah − bl)]` |
+//! | `mul` | `[−max RU(−x·y), max RU(x·y)]` over the four bound pairs (a NaN product `0·∞` counts as 0) |
+//! | `square` | `[RD(mig²), RU(mag²)]` |
+//! | `sqrt` | `[RD(√max(lo,0)), RU(√hi)]`, empty when `hi < 0`; defined iff `lo ≥ 0` |
+//! | `powi a n`, `1 ≤ n ≤ 8` | exact monotone rules on `mig`/`mag` (even `n`) or the signed bounds (odd `n`), each product of the repeated squaring rounded in its direction |
 //!
 //! Everything else (`div`, other `powi`, transcendentals, `atan2`,
 //! `pow`) calls [`crate::interval`]'s per-op enclosures through
@@ -139,11 +138,8 @@ pub(super) fn unary(env: &mut Env, u: UnOp, (lo, hi): Iv) -> (Iv, Option<Value>)
         UnOp::Square => {
             let (mig, mag) = mig_mag(env, (lo, hi));
             let b = &mut env.b;
-            let (l, lt) = rounding::mul(b, mig, mig);
-            let (h, ht) = rounding::mul(b, mag, mag);
-            let l = rounding::lower(b, l, Some(lt));
-            let l = clamp0(b, l);
-            let h = rounding::upper(b, h, Some(ht));
+            let l = rounding::mul_down(b, mig, mig);
+            let h = rounding::mul_up(b, mag, mag);
             ((l, h), None)
         }
         UnOp::Sqrt => {
@@ -151,11 +147,8 @@ pub(super) fn unary(env: &mut Env, u: UnOp, (lo, hi): Iv) -> (Iv, Option<Value>)
             let zero = b.ins().f64const(0.0);
             let defined = b.ins().fcmp(FloatCC::GreaterThanOrEqual, lo, zero);
             let l0 = b.ins().fmax(lo, zero);
-            let (l, lt) = rounding::sqrt(b, l0);
-            let l = rounding::lower(b, l, Some(lt));
-            let l = clamp0(b, l);
-            let (h, ht) = rounding::sqrt(b, hi);
-            let h = rounding::upper(b, h, Some(ht));
+            let l = rounding::sqrt_down(b, l0);
+            let h = rounding::sqrt_up(b, hi);
             // hi < 0: nowhere defined, the empty interval [+∞, −∞].
             let empty = b.ins().fcmp(FloatCC::LessThan, hi, zero);
             let pinf = b.ins().f64const(f64::INFINITY);
@@ -171,33 +164,25 @@ pub(super) fn unary(env: &mut Env, u: UnOp, (lo, hi): Iv) -> (Iv, Option<Value>)
 pub(super) fn binary(env: &mut Env, op: BinOp, a: Iv, bv: Iv) -> (Iv, Option<Value>) {
     let b = &mut env.b;
     match op {
-        BinOp::Add => {
-            let l = rounding::add(b, a.0, bv.0);
-            let h = rounding::add(b, a.1, bv.1);
+        BinOp::Add => (
             (
-                (rounding::lower(b, l, None), rounding::upper(b, h, None)),
-                None,
-            )
-        }
-        BinOp::Sub => {
-            let l = rounding::sub(b, a.0, bv.1);
-            let h = rounding::sub(b, a.1, bv.0);
+                rounding::add_down(b, a.0, bv.0),
+                rounding::add_up(b, a.1, bv.1),
+            ),
+            None,
+        ),
+        BinOp::Sub => (
             (
-                (rounding::lower(b, l, None), rounding::upper(b, h, None)),
-                None,
-            )
-        }
+                rounding::sub_down(b, a.0, bv.1),
+                rounding::sub_up(b, a.1, bv.0),
+            ),
+            None,
+        ),
         BinOp::Mul => (mul(env, a, bv), None),
         BinOp::Min => ((b.ins().fmin(a.0, bv.0), b.ins().fmin(a.1, bv.1)), None),
         BinOp::Max => ((b.ins().fmax(a.0, bv.0), b.ins().fmax(a.1, bv.1)), None),
         BinOp::Div | BinOp::Atan2 | BinOp::Pow => env.call_iv_binary(op, a, bv),
     }
-}
-
-/// `max(x, 0)` (sound for a lower bound of a nonnegative quantity).
-fn clamp0(b: &mut cranelift_frontend::FunctionBuilder, x: Value) -> Value {
-    let zero = b.ins().f64const(0.0);
-    b.ins().fmax(x, zero)
 }
 
 /// `(mig, mag)`: the smallest and largest `|x|` on `[lo, hi]`, exact.
@@ -212,61 +197,59 @@ fn mig_mag(env: &mut Env, (lo, hi): Iv) -> Iv {
     (mig, mag)
 }
 
-/// Interval product, outward rounded: each of the four products is
-/// rounded down and up by its own error term, then min/max.
+/// Interval product, outward rounded: the largest of the four products
+/// rounded up is the upper bound; the lower bound is `−max RU(−x·y)` over
+/// the same four.
+///
+/// A NaN product (`0·∞`) stands for 0 in interval arithmetic. The maxima
+/// use the one-instruction "pseudo-max" [`pmax`], which skips a NaN first
+/// operand, and only the chain's seed (the product of the two upper
+/// bounds) is made 0 when NaN. Skipping the other NaN products is exact:
+/// a NaN corner `0·(±∞)` means a bound of one factor is 0 and of the other
+/// infinite; if the other factor's other bound is finite, its corner with
+/// that 0 is 0 and counted; if it is infinite too, the other corners give
+/// `±∞` (the hull is the whole line) unless the first factor is `[0, 0]`,
+/// where every corner is NaN and the seed gives `[0, 0]`.
 pub(super) fn mul(env: &mut Env, a: Iv, c: Iv) -> Iv {
     let b = &mut env.b;
     let zero = b.ins().f64const(0.0);
-    let bounds = [(a.0, c.0), (a.0, c.1), (a.1, c.0), (a.1, c.1)].map(|(x, y)| {
-        let (p, tiny) = rounding::mul(b, x, y);
-        // 0·∞ = NaN stands for 0 in interval arithmetic (its error term is
-        // NaN too, so it stays exact).
-        let nan = b.ins().fcmp(FloatCC::Unordered, p.r, p.r);
-        let r = b.ins().select(nan, zero, p.r);
-        let p = rounding::Rounded { r, e: p.e };
-        let lo = rounding::lower(b, p, Some(tiny));
-        let hi = rounding::upper(b, p, Some(tiny));
-        // The exact product's sign is known from the operands' signs: a
-        // forced widening (underflow) must not cross 0 — x·y ≥ 0 when the
-        // signs agree, ≤ 0 when they differ. (Comparisons with NaN are
-        // false: no clamp.)
-        let xp = b.ins().fcmp(FloatCC::GreaterThanOrEqual, x, zero);
-        let xn = b.ins().fcmp(FloatCC::LessThanOrEqual, x, zero);
-        let yp = b.ins().fcmp(FloatCC::GreaterThanOrEqual, y, zero);
-        let yn = b.ins().fcmp(FloatCC::LessThanOrEqual, y, zero);
-        let pp = b.ins().band(xp, yp);
-        let nn = b.ins().band(xn, yn);
-        let nonneg = b.ins().bor(pp, nn);
-        let pn = b.ins().band(xp, yn);
-        let np = b.ins().band(xn, yp);
-        let nonpos = b.ins().bor(pn, np);
-        let lo_clamped = b.ins().fmax(lo, zero);
-        let hi_clamped = b.ins().fmin(hi, zero);
-        (
-            b.ins().select(nonneg, lo_clamped, lo),
-            b.ins().select(nonpos, hi_clamped, hi),
-        )
-    });
-    let lo01 = b.ins().fmin(bounds[0].0, bounds[1].0);
-    let lo23 = b.ins().fmin(bounds[2].0, bounds[3].0);
-    let lo = b.ins().fmin(lo01, lo23);
-    let hi01 = b.ins().fmax(bounds[0].1, bounds[1].1);
-    let hi23 = b.ins().fmax(bounds[2].1, bounds[3].1);
-    let hi = b.ins().fmax(hi01, hi23);
-    (lo, hi)
+    let na = (b.ins().fneg(a.0), b.ins().fneg(a.1));
+    let seed = |b: &mut cranelift_frontend::FunctionBuilder, x: Value, y: Value| {
+        let p = b.ins().fmul(x, y);
+        let nan = b.ins().fcmp(FloatCC::Unordered, p, p);
+        b.ins().select(nan, zero, p)
+    };
+    let chain = |b: &mut cranelift_frontend::FunctionBuilder, mut acc: Value, rest: [Iv; 3]| {
+        for (x, y) in rest {
+            let p = b.ins().fmul(x, y);
+            acc = pmax(b, p, acc);
+        }
+        acc
+    };
+    let hi0 = seed(b, a.1, c.1);
+    let hi = chain(b, hi0, [(a.0, c.0), (a.0, c.1), (a.1, c.0)]);
+    let nlo0 = seed(b, na.1, c.1);
+    let nlo = chain(b, nlo0, [(na.0, c.0), (na.0, c.1), (na.1, c.0)]);
+    (b.ins().fneg(nlo), hi)
+}
+
+/// `acc < p ? p : acc`: the larger of `p` and `acc`, and `acc` when `p` is
+/// NaN (one `maxsd` on x86-64; `acc` must not be NaN for a maximum).
+fn pmax(b: &mut cranelift_frontend::FunctionBuilder, p: Value, acc: Value) -> Value {
+    let lt = b.ins().fcmp(FloatCC::LessThan, acc, p);
+    b.ins().select(lt, p, acc)
 }
 
 /// Bounds of `x^n` for `x ≥ 0` (`x` an exact bound), `n ≥ 1`: the repeated
-/// squaring with every product widened in direction `up`.
+/// squaring with every product rounded in direction `up` (products of
+/// nonnegative numbers are monotone, so the chain bounds the exact power).
 fn pow_bound(env: &mut Env, x: Value, mut n: u64, up: bool) -> Value {
     let b = &mut env.b;
     let mul_round = |b: &mut cranelift_frontend::FunctionBuilder, x: Value, y: Value| {
-        let (p, tiny) = rounding::mul(b, x, y);
         if up {
-            rounding::upper(b, p, Some(tiny))
+            rounding::mul_up(b, x, y)
         } else {
-            let d = rounding::lower(b, p, Some(tiny));
-            clamp0(b, d)
+            rounding::mul_down(b, x, y)
         }
     };
     let mut acc: Option<Value> = None;
@@ -287,9 +270,10 @@ fn pow_bound(env: &mut Env, x: Value, mut n: u64, up: bool) -> Value {
     acc.unwrap_or(x)
 }
 
-/// Largest exponent computed inline. Each squaring doubles the relative
-/// width of a widened bound, so long chains call the helper, whose
-/// error-free transformations keep exact products exact (`1^(10^10) = 1`).
+/// Largest exponent computed inline. Each squaring can double the
+/// relative width of a rounded bound, so long chains call the helper,
+/// whose error-free transformations keep exact products exact
+/// (`1^(10^10) = 1`).
 pub(super) const INLINE_POWI_MAX: i64 = 8;
 
 /// `[lo, hi]^n`, `n ≥ 1`.

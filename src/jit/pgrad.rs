@@ -34,11 +34,12 @@
 //! `b'` still costs `a·0`, which is NaN for infinite `a`), the reference's
 //! results are reproduced exactly.
 
-use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
-use cranelift_codegen::ir::{self as clif, InstBuilder, Value, types};
+use cranelift_codegen::ir::condcodes::FloatCC;
+use cranelift_codegen::ir::{InstBuilder, Value, types};
 
 use super::Env;
-use super::helpers::{self, PG_BINARY_BASE, PG_OP};
+use super::entry::batch_loop;
+use super::helpers::{self, Helper, PG_BINARY_BASE};
 use super::point::{div_nan, powi_chain};
 use crate::ir::{BinOp, Op, Program, UnOp};
 
@@ -215,59 +216,25 @@ fn call_pg(env: &mut Env, code: u32, a: Dual, b: Option<Dual>) -> Dual {
         }
     }
     let c = env.code(code);
-    let h = helper_index();
-    env.b.ins().call(env.helpers[h], &[c, pa, pb, po]);
+    env.call_void(Helper::PgOp, &[c, pa, pb, po]);
     [0, 1, 2, 3].map(|k| env.b.ins().load(types::F64, f, po, 8 * k))
 }
 
-/// Index of `isoc_pg_op` among [`helpers::symbols`] (and so in
-/// `Env::helpers`).
-fn helper_index() -> usize {
-    helpers::symbols()
-        .iter()
-        .position(|(n, _)| *n == PG_OP)
-        .unwrap_or(0)
-}
-
-/// Emits the single (`fn(x, y, z, t, out)`) or batch (`fn(xs, ys, zs, t,
-/// out, n)`) entry point's body, starting in `entry`.
-pub(super) fn emit_entry(env: &mut Env, prog: &Program, batch: bool, entry: clif::Block) {
-    let params: Vec<Value> = env.b.block_params(entry).to_vec();
+/// Emits the batch entry point's body (`fn(xs, ys, zs, t, out, n)`).
+pub(super) fn emit_batch(env: &mut Env, prog: &Program, params: &[Value]) {
     let f = Env::flags();
-    let store = |env: &mut Env, r: Dual, out: Value| {
+    batch_loop(env, params[5], |env, i| {
+        let off = env.b.ins().imul_imm_s(i, 8);
+        let xyz = [0, 1, 2].map(|k| {
+            let a = env.b.ins().iadd(params[k], off);
+            env.b.ins().load(types::F64, f, a, 0)
+        });
+        let r = lower(env, prog, [xyz[0], xyz[1], xyz[2], params[3]]);
+        let out_off = env.b.ins().imul_imm_s(i, 32);
+        let oa = env.b.ins().iadd(params[4], out_off);
         for (k, &x) in r.iter().enumerate() {
-            env.b.ins().store(f, x, out, (8 * k) as i32);
+            env.b.ins().store(f, x, oa, (8 * k) as i32);
         }
-    };
-    if !batch {
-        let r = lower(env, prog, [params[0], params[1], params[2], params[3]]);
-        store(env, r, params[4]);
-        env.b.ins().return_(&[]);
-        return;
-    }
-    let n = params[5];
-    let header = env.b.create_block();
-    let body = env.b.create_block();
-    let exit = env.b.create_block();
-    env.b.append_block_param(header, types::I64);
-    let zero = env.b.ins().iconst(types::I64, 0);
-    env.b.ins().jump(header, &[zero.into()]);
-    env.b.switch_to_block(header);
-    let i = env.b.block_params(header)[0];
-    let more = env.b.ins().icmp(IntCC::UnsignedLessThan, i, n);
-    env.b.ins().brif(more, body, &[], exit, &[]);
-    env.b.switch_to_block(body);
-    let off = env.b.ins().imul_imm_s(i, 8);
-    let xyz = [0, 1, 2].map(|k| {
-        let a = env.b.ins().iadd(params[k], off);
-        env.b.ins().load(types::F64, f, a, 0)
     });
-    let r = lower(env, prog, [xyz[0], xyz[1], xyz[2], params[3]]);
-    let out_off = env.b.ins().imul_imm_s(i, 32);
-    let oa = env.b.ins().iadd(params[4], out_off);
-    store(env, r, oa);
-    let next = env.b.ins().iadd_imm_s(i, 1);
-    env.b.ins().jump(header, &[next.into()]);
-    env.b.switch_to_block(exit);
     env.b.ins().return_(&[]);
 }

@@ -1,229 +1,102 @@
-//! Outward rounding in generated code.
+//! Outward rounding in generated code: hardware rounding toward +∞.
 //!
 //! # Strategy
 //!
-//! Every kernel runs in the default rounding mode (round to nearest, ties to
-//! even); nothing touches MXCSR (switching it is only legal inside one
-//! `asm!` block around the whole kernel call, and then every helper call —
-//! CORE-MATH — would run in the wrong mode).
+//! The interval and interval-gradient kernels run with MXCSR set to round
+//! toward +∞ (switched at entry and exit, and back to nearest around every
+//! call into Rust: see [`super::mxcsr`]). Then one instruction gives each
+//! bound, correctly rounded in its direction:
 //!
-//! Each bound is computed in round to nearest, `r = RN(exact)`, together
-//! with the sign of the error `e = exact − r`, obtained by an error-free
-//! transformation:
-//!
-//! | op | error term (exact in f64) |
+//! | bound | computed as |
 //! |---|---|
-//! | `a + b` | TwoSum (Knuth): `s = a+b; b' = s−a; e = (a−(s−b')) + (b−b')` |
-//! | `a · b` | `fma(a, b, −p)` |
-//! | `√a` | `fma(−r, r, a)` (sign of `a − r²`) |
+//! | upper `RU(a ∘ b)` | `a ∘ b` |
+//! | lower `RD(a + b)` | `−((−a) − b)` |
+//! | lower `RD(a · b)` | `−((−a) · b)` |
+//! | lower `RD(√a)` | `r = √a`; `pred(r)` if `r·r > a` (rounded up, so exactly when `r² > a`), else `r` |
 //!
-//! A lower bound is `r` when `e ≥ 0` and the predecessor of `r` when
-//! `e < 0`; an upper bound symmetrically. So bounds are exactly as tight as
-//! hardware directed rounding (exact results stay exact: `[−1,2]² = [0,4]`,
-//! `1⁸ = 1`, `√1 = 1` — which matters: a widened `√1` would push `asin`'s
-//! argument out of its domain). The predecessor/successor is the branch-free
-//! formula of Rump, Zimmermann, Boldo & Melquiond ("Computing predecessor
-//! and successor in rounding to nearest", BIT 49, 2009, Algorithm 2):
+//! using `RD(x) = −RU(−x)`. The bounds are exactly as tight as the
+//! reference interpreter's error-free transformations ([`crate::interval`])
+//! in the normal range and tighter where those must widen blindly
+//! (underflow): exact results stay exact (`[−1,2]² = [0,4]`, `1⁸ = 1`,
+//! `√1 = 1`, which matters: a widened `√1` would push `asin`'s argument out
+//! of its domain). Overflow is handled by the hardware: an upper bound
+//! overflows to `+∞`, a lower bound computed as `−RU(−x)` to `−∞`; a lower
+//! bound never becomes `+∞` nor an upper bound `−∞` from finite operands.
 //!
-//! ```text
-//! e    = φ·|c| + η        φ = 2^-53·(1 + 2^-52),  η = 2^-1074 (smallest subnormal)
-//! up   = c + e            ∈ {succ(c), succ(succ(c))}
-//! down = c − e            ∈ {pred(c), pred(pred(c))}
-//! ```
+//! # Why this scheme (measured, see `docs/jit.md`)
 //!
-//! **Where the error term is not exact** the bound is widened
-//! unconditionally: a product or square-root argument below `2^-960` (the
-//! `fma` residual may underflow and lose its sign), and overflow (`r = ±∞`
-//! from finite operands gives a NaN error term). Overflow of a lower bound
-//! to `+∞` gives `MAX`, of an upper bound to `−∞` gives `−MAX`; a NaN error
-//! term otherwise means "treat as exact", which only happens when `r` itself
-//! is NaN or infinite.
+//! The previous scheme computed each bound in round to nearest with an
+//! error-free transformation (TwoSum, FMA residual), a sign test, a
+//! predecessor/successor and underflow/overflow guards: about 45 IR
+//! instructions a product bound, ≈ 1 KB of machine code an interval
+//! product, and register allocation over that code made compile time
+//! super-linear. Directed rounding needs one instruction a bound (plus the
+//! `0·∞` rule for products), so code size and compile time are linear and
+//! small.
 //!
-//! The FMA is a single instruction on x86-64 with FMA3 (Cranelift checks
-//! the host); elsewhere Cranelift calls the C library's `fma`, which is
-//! correctly rounded too.
+//! # What Cranelift may do to it
 //!
-//! No float operation is ever emitted on two Cranelift constants (its
-//! mid-end folds them in round-to-nearest): every operand here is computed.
+//! Cranelift's mid-end rewrites float code only where the rewrite is exact
+//! in every rounding mode (`−(−x) → x`, `(−x)·(−y) → x·y`) — checked
+//! against cranelift-codegen 0.135's ISLE rules — except constant folding,
+//! which is done in round to nearest: so no float operation is ever
+//! emitted on two Cranelift constants (constants are loaded from the pool,
+//! see [`super`]).
 
 use cranelift_codegen::ir::condcodes::FloatCC;
-use cranelift_codegen::ir::{InstBuilder, Value};
+use cranelift_codegen::ir::{InstBuilder, MemFlagsData, Value, types};
 use cranelift_frontend::FunctionBuilder;
 
-/// φ = 2^-53·(1 + 2^-52).
-pub const PHI: f64 = f64::from_bits(0x3CA0_0000_0000_0001);
-/// η = 2^-1074.
-pub const ETA: f64 = f64::from_bits(1);
-
-fn margin(b: &mut FunctionBuilder, c: Value) -> Value {
-    let a = b.ins().fabs(c);
-    let phi = b.ins().f64const(PHI);
-    let eta = b.ins().f64const(ETA);
-    let e = b.ins().fmul(a, phi);
-    b.ins().fadd(e, eta)
+/// `RU(x + y)`.
+pub fn add_up(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
+    b.ins().fadd(x, y)
 }
 
-/// Below this magnitude an `fma` residual may underflow.
-pub const TINY: f64 = 1.0e-289; // < 2^-960
-
-/// A round-to-nearest result and the error term `exact − r` (or NaN).
-#[derive(Clone, Copy)]
-pub struct Rounded {
-    pub r: Value,
-    pub e: Value,
+/// `RD(x + y) = −RU(−x − y)`.
+pub fn add_down(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
+    let nx = b.ins().fneg(x);
+    let s = b.ins().fsub(nx, y);
+    b.ins().fneg(s)
 }
 
-/// `a + b` with its TwoSum error.
-pub fn add(b: &mut FunctionBuilder, x: Value, y: Value) -> Rounded {
-    let s = b.ins().fadd(x, y);
-    let yv = b.ins().fsub(s, x);
-    let xv = b.ins().fsub(s, yv);
-    let dx = b.ins().fsub(x, xv);
-    let dy = b.ins().fsub(y, yv);
-    let e = b.ins().fadd(dx, dy);
-    Rounded { r: s, e }
+/// `RU(x − y)`.
+pub fn sub_up(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
+    b.ins().fsub(x, y)
 }
 
-/// `a − b` with its error.
-pub fn sub(b: &mut FunctionBuilder, x: Value, y: Value) -> Rounded {
-    let ny = b.ins().fneg(y);
-    add(b, x, ny)
+/// `RD(x − y) = −RU(y − x)`.
+pub fn sub_down(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
+    let s = b.ins().fsub(y, x);
+    b.ins().fneg(s)
 }
 
-/// `a · b` with its FMA error, and an i8 "the product is tiny" (the error
-/// term may have underflowed: the caller must widen regardless).
-pub fn mul(b: &mut FunctionBuilder, x: Value, y: Value) -> (Rounded, Value) {
-    let p = b.ins().fmul(x, y);
-    let np = b.ins().fneg(p);
-    let e = b.ins().fma(x, y, np);
-    let tiny = is_tiny(b, p);
-    // A zero operand makes the product exactly zero: no forced widening.
-    let zero = b.ins().f64const(0.0);
-    let zx = b.ins().fcmp(FloatCC::Equal, x, zero);
-    let zy = b.ins().fcmp(FloatCC::Equal, y, zero);
-    let z = b.ins().bor(zx, zy);
-    let nz = b.ins().bxor_imm_u(z, 1);
-    let tiny = b.ins().band(tiny, nz);
-    (Rounded { r: p, e }, tiny)
+/// `RU(x · y)`.
+pub fn mul_up(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
+    b.ins().fmul(x, y)
 }
 
-/// `√a` with the sign of `a − r²`.
-pub fn sqrt(b: &mut FunctionBuilder, a: Value) -> (Rounded, Value) {
+/// `RD(x · y) = −RU((−x) · y)`.
+pub fn mul_down(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
+    let nx = b.ins().fneg(x);
+    let p = b.ins().fmul(nx, y);
+    b.ins().fneg(p)
+}
+
+/// `RU(√a)`.
+pub fn sqrt_up(b: &mut FunctionBuilder, a: Value) -> Value {
+    b.ins().sqrt(a)
+}
+
+/// `RD(√a)` for `a ≥ 0` (finite or `+∞`): `r = RU(√a)`, and its
+/// predecessor when inexact. `r·r` rounded up exceeds `a` exactly when
+/// `r² > a` (`a` is a float, so `RU(r²) ≤ a` when `r² ≤ a`); the
+/// predecessor of a positive finite float is its bit pattern minus one.
+pub fn sqrt_down(b: &mut FunctionBuilder, a: Value) -> Value {
     let r = b.ins().sqrt(a);
-    let nr = b.ins().fneg(r);
-    let e = b.ins().fma(nr, r, a);
-    let tiny = is_tiny(b, a);
-    // √0 = 0 exactly.
-    let zero = b.ins().f64const(0.0);
-    let nz = b.ins().fcmp(FloatCC::NotEqual, a, zero);
-    let tiny = b.ins().band(tiny, nz);
-    (Rounded { r, e }, tiny)
-}
-
-/// `|v| < TINY` (false for NaN).
-fn is_tiny(b: &mut FunctionBuilder, v: Value) -> Value {
-    let a = b.ins().fabs(v);
-    let t = b.ins().f64const(TINY);
-    b.ins().fcmp(FloatCC::LessThan, a, t)
-}
-
-/// The largest f64 ≤ the exact value, given its rounding `x` (`force`: an
-/// i8 that, when 1, widens even if the error term says exact).
-pub fn lower(b: &mut FunctionBuilder, x: Rounded, force: Option<Value>) -> Value {
-    let zero = b.ins().f64const(0.0);
-    let pinf = b.ins().f64const(f64::INFINITY);
-    let neg = b.ins().fcmp(FloatCC::LessThan, x.e, zero);
-    let ovf = b.ins().fcmp(FloatCC::Equal, x.r, pinf);
-    let mut c = b.ins().bor(neg, ovf);
-    if let Some(f) = force {
-        c = b.ins().bor(c, f);
-    }
-    let d = down(b, x.r);
-    b.ins().select(c, d, x.r)
-}
-
-/// The smallest f64 ≥ the exact value; see [`lower`].
-pub fn upper(b: &mut FunctionBuilder, x: Rounded, force: Option<Value>) -> Value {
-    let zero = b.ins().f64const(0.0);
-    let ninf = b.ins().f64const(f64::NEG_INFINITY);
-    let pos = b.ins().fcmp(FloatCC::GreaterThan, x.e, zero);
-    let ovf = b.ins().fcmp(FloatCC::Equal, x.r, ninf);
-    let mut c = b.ins().bor(pos, ovf);
-    if let Some(f) = force {
-        c = b.ins().bor(c, f);
-    }
-    let u = up(b, x.r);
-    b.ins().select(c, u, x.r)
-}
-
-/// An f64 ≥ the exact result that `c` is the round-to-nearest of.
-pub fn up(b: &mut FunctionBuilder, c: Value) -> Value {
-    let e = margin(b, c);
-    let r = b.ins().fadd(c, e);
-    let ninf = b.ins().f64const(f64::NEG_INFINITY);
-    let is_ninf = b.ins().fcmp(FloatCC::Equal, c, ninf);
-    let m = b.ins().f64const(-f64::MAX);
-    b.ins().select(is_ninf, m, r)
-}
-
-/// An f64 ≤ the exact result that `c` is the round-to-nearest of.
-pub fn down(b: &mut FunctionBuilder, c: Value) -> Value {
-    let e = margin(b, c);
-    let r = b.ins().fsub(c, e);
-    let pinf = b.ins().f64const(f64::INFINITY);
-    let is_pinf = b.ins().fcmp(FloatCC::Equal, c, pinf);
-    let m = b.ins().f64const(f64::MAX);
-    b.ins().select(is_pinf, m, r)
-}
-
-/// The same widening in Rust, for tests and the tightness measurement.
-pub fn up_f64(c: f64) -> f64 {
-    if c == f64::NEG_INFINITY {
-        -f64::MAX
-    } else {
-        c + (c.abs() * PHI + ETA)
-    }
-}
-
-/// See [`up_f64`].
-pub fn down_f64(c: f64) -> f64 {
-    if c == f64::INFINITY {
-        f64::MAX
-    } else {
-        c - (c.abs() * PHI + ETA)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn widening_is_strict_and_tight() {
-        let samples = [
-            0.0,
-            -0.0,
-            1.0,
-            -1.0,
-            0.1,
-            2.0f64.powi(-1022),
-            f64::from_bits(1),
-            f64::MAX,
-            -f64::MAX,
-            1.9999999999999998,
-            3.0,
-            -7.5e-300,
-            123456.789,
-        ];
-        for &c in &samples {
-            let u = up_f64(c);
-            let d = down_f64(c);
-            assert!(u > c && u <= c.next_up().next_up(), "{c}: {u}");
-            assert!(d < c && d >= c.next_down().next_down(), "{c}: {d}");
-        }
-        assert_eq!(up_f64(f64::INFINITY), f64::INFINITY);
-        assert_eq!(down_f64(f64::NEG_INFINITY), f64::NEG_INFINITY);
-        assert_eq!(up_f64(f64::NEG_INFINITY), -f64::MAX);
-        assert_eq!(down_f64(f64::INFINITY), f64::MAX);
-    }
+    let rr = b.ins().fmul(r, r);
+    let inexact = b.ins().fcmp(FloatCC::GreaterThan, rr, a);
+    let bits = b.ins().bitcast(types::I64, MemFlagsData::new(), r);
+    let pbits = b.ins().iadd_imm_s(bits, -1);
+    let pred = b.ins().bitcast(types::F64, MemFlagsData::new(), pbits);
+    b.ins().select(inexact, pred, r)
 }

@@ -1,0 +1,160 @@
+//! Entry points: signatures, names, the batch loop, and the rounding-mode
+//! bracket of the interval kernels.
+//!
+//! Each kernel kind has a single and a batch entry point (ABI table in
+//! [`super`]). The batch entry point is one loop over the records whose
+//! body is the single body ([`batch_loop`]). The interval and gradient
+//! entry points call `isoc_rm_enter` first and `isoc_rm_leave` before
+//! returning ([`super::mxcsr`]): a batch switches the mode once, not once
+//! per box.
+
+use cranelift_codegen::ir as clif;
+use cranelift_codegen::ir::condcodes::IntCC;
+use cranelift_codegen::ir::{AbiParam, InstBuilder, Signature, StackSlotData, StackSlotKind};
+use cranelift_codegen::ir::{Value, types};
+
+use super::helpers::Helper;
+use super::{Env, JitOptions, Kind, grad, interval, pgrad, point, simd};
+use crate::ir;
+
+pub(super) fn entry_name(kind: Kind, batch: bool) -> &'static str {
+    match (kind, batch) {
+        (Kind::Point, false) => "point",
+        (Kind::Point, true) => "point_batch",
+        (Kind::Interval, false) => "interval",
+        (Kind::Interval, true) => "interval_batch",
+        (Kind::Grad, false) => "grad",
+        (Kind::Grad, true) => "grad_batch",
+        (Kind::PointGrad, false) => "point_grad",
+        (Kind::PointGrad, true) => "point_grad_batch",
+    }
+}
+
+pub(super) fn entry_sig(
+    kind: Kind,
+    batch: bool,
+    cc: cranelift_codegen::isa::CallConv,
+    ptr: clif::Type,
+) -> Signature {
+    use types::{F64, I64};
+    let mut s = Signature::new(cc);
+    let (params, ret): (Vec<clif::Type>, Option<clif::Type>) = match (kind, batch) {
+        (Kind::Point, false) => (vec![F64; 4], Some(F64)),
+        (Kind::Point, true) | (Kind::PointGrad, true) => (vec![ptr, ptr, ptr, F64, ptr, I64], None),
+        // Only the point kind has a single entry point.
+        (_, _) => (vec![ptr, ptr, ptr, I64], None),
+    };
+    s.params.extend(params.into_iter().map(AbiParam::new));
+    s.returns.extend(ret.map(AbiParam::new));
+    s
+}
+
+/// `for i in 0..n { body(env, i) }` in the current block; leaves the
+/// builder in the (empty) exit block.
+pub(super) fn batch_loop(env: &mut Env, n: Value, body: impl FnOnce(&mut Env, Value)) {
+    let header = env.b.create_block();
+    let inner = env.b.create_block();
+    let exit = env.b.create_block();
+    env.b.append_block_param(header, types::I64);
+    let zero = env.b.ins().iconst(types::I64, 0);
+    env.b.ins().jump(header, &[zero.into()]);
+    env.b.switch_to_block(header);
+    let i = env.b.block_params(header)[0];
+    let more = env.b.ins().icmp(IntCC::UnsignedLessThan, i, n);
+    env.b.ins().brif(more, inner, &[], exit, &[]);
+    env.b.switch_to_block(inner);
+    body(env, i);
+    let next = env.b.ins().iadd_imm_s(i, 1);
+    env.b.ins().jump(header, &[next.into()]);
+    env.b.switch_to_block(exit);
+}
+
+/// Emits the entry point's body (loop for batch) into `env`, starting in
+/// `entry`, whose parameters are the function's.
+pub(super) fn emit_entry(
+    env: &mut Env,
+    prog: &ir::Program,
+    kind: Kind,
+    batch: bool,
+    entry: clif::Block,
+    opts: &JitOptions,
+) {
+    let params: Vec<Value> = env.b.block_params(entry).to_vec();
+    match kind {
+        Kind::PointGrad => pgrad::emit_batch(env, prog, &params),
+        Kind::Point if batch && opts.simd => simd::emit_point_batch(env, prog, &params),
+        Kind::Point if batch => {
+            let f = Env::flags();
+            batch_loop(env, params[5], |env, i| {
+                let off = env.b.ins().imul_imm_s(i, 8);
+                let [x, y, z] = [0, 1, 2].map(|k| {
+                    let a = env.b.ins().iadd(params[k], off);
+                    env.b.ins().load(types::F64, f, a, 0)
+                });
+                let r = point::lower(env, prog, [x, y, z, params[3]]);
+                let oa = env.b.ins().iadd(params[4], off);
+                env.b.ins().store(f, r, oa, 0);
+            });
+            env.b.ins().return_(&[]);
+        }
+        Kind::Point => {
+            let r = point::lower(env, prog, [params[0], params[1], params[2], params[3]]);
+            env.b.ins().return_(&[r]);
+        }
+        Kind::Interval | Kind::Grad => emit_box_batch(env, prog, kind, &params),
+    }
+}
+
+/// The interval or gradient batch entry point, bracketed by the
+/// rounding-mode switch.
+fn emit_box_batch(env: &mut Env, prog: &ir::Program, kind: Kind, params: &[Value]) {
+    let save_slot = env
+        .b
+        .create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 8, 3));
+    let save = env.b.ins().stack_addr(env.ptr, save_slot, 0);
+    env.call_void(Helper::RmEnter, &[save]);
+    let f = Env::flags();
+    let stride = if kind == Kind::Interval { 16 } else { 64 };
+    batch_loop(env, params[3], |env, i| {
+        let in_off = env.b.ins().imul_imm_s(i, 64);
+        let ia = env.b.ins().iadd(params[0], in_off);
+        let out_off = env.b.ins().imul_imm_s(i, stride);
+        let oa = env.b.ins().iadd(params[1], out_off);
+        let input = [0, 1, 2, 3].map(|k| {
+            let iv = env.read_iv(ia, 16 * k);
+            interval::normalize(env, iv)
+        });
+        let d = store_box_result(env, prog, kind, input, oa);
+        let da = env.b.ins().iadd(params[2], i);
+        env.b.ins().store(f, d, da, 0);
+    });
+    // The slot's address is recomputed rather than kept live across the
+    // loop.
+    let save = env.b.ins().stack_addr(env.ptr, save_slot, 0);
+    env.call_void(Helper::RmLeave, &[save]);
+    env.b.ins().return_(&[]);
+}
+
+/// Lowers the interval or gradient body and stores its result at `out`;
+/// returns the decoration.
+fn store_box_result(
+    env: &mut Env,
+    prog: &ir::Program,
+    kind: Kind,
+    input: [(interval::Iv, interval::Flag); 4],
+    out: Value,
+) -> Value {
+    let f = Env::flags();
+    let (ivs, d): (Vec<interval::Iv>, Value) = if kind == Kind::Interval {
+        let (iv, d) = interval::lower(env, prog, input);
+        (vec![iv], d)
+    } else {
+        let (g, d) = grad::lower(env, prog, input);
+        (g.to_vec(), d)
+    };
+    for (k, (lo, hi)) in ivs.into_iter().enumerate() {
+        env.b.ins().store(f, lo, out, (16 * k) as i32);
+        env.b.ins().store(f, hi, out, (16 * k + 8) as i32);
+    }
+    d
+}

@@ -1,0 +1,566 @@
+//! [`Kernels`]: the public face of the JIT — the compiled entry points of
+//! one program, compiled lazily per kind, with safe single and batch calls.
+//!
+//! Each kind (point, interval, interval-gradient, point-gradient) lives in
+//! its own JIT module behind a `OnceLock`, compiled on first use or by
+//! [`Kernels::prepare`] (several kinds in parallel). A program longer than
+//! [`JitOptions::jit_limit`] is never compiled: every call then runs the
+//! reference interpreters of [`crate::eval`], whose time and memory are
+//! linear in the program (same results; the point kinds bit for bit, the
+//! interval kinds enclosures at least as sound). A compilation failure is
+//! remembered; the safe methods fall back to the interpreters as well, and
+//! [`Kernels::engine`] says which ran.
+
+use std::sync::OnceLock;
+use std::time::Duration;
+
+use super::module::{ModuleOwner, build};
+use super::{
+    BoxBatchFn, JitError, JitOptions, KernelInfo, Kind, POOL_STRIDE, PointBatchFn, PointFn,
+    PointGradBatchFn,
+};
+use crate::eval::grad::GradEval;
+use crate::interval::{DecInterval, Interval};
+use crate::ir::{self, Op};
+
+/// The compiled entry points of one kind: a batch entry point, and for
+/// the point kind a single one (`S = ()` otherwise: a single call is a
+/// batch of one).
+struct Entry<S, B> {
+    single: S,
+    batch: B,
+    info: Vec<KernelInfo>,
+    _module: ModuleOwner,
+}
+
+type Lazy<S, B> = OnceLock<Result<Entry<S, B>, JitError>>;
+
+/// Which implementation serves a kind.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Engine {
+    /// Native code compiled by Cranelift.
+    Jit,
+    /// The reference interpreters ([`crate::eval`]), because the kind could
+    /// not or should not be compiled (the reason).
+    Interpreter(JitError),
+}
+
+/// The kernels of one program. See the module doc.
+pub struct Kernels {
+    program: ir::Program,
+    opts: JitOptions,
+    point: Lazy<PointFn, PointBatchFn>,
+    interval: Lazy<(), BoxBatchFn>,
+    grad: Lazy<(), BoxBatchFn>,
+    pgrad: Lazy<(), PointGradBatchFn>,
+    // Field order matters: the modules (code) are dropped before the pool,
+    // and neither is touched but by the kernels.
+    pool: Box<[f64]>,
+}
+
+impl std::fmt::Debug for Kernels {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Kernels")
+            .field("ir_len", &self.program.len())
+            .field("info", &self.info())
+            .finish_non_exhaustive()
+    }
+}
+
+/// Reinterprets a finalized code pointer as the entry point type `F`.
+///
+/// # Safety
+/// `p` is the finalized code of a function declared with the signature
+/// that [`super::entry::entry_sig`] gives for the kind `F` stands for, and
+/// the code outlives every use of the result.
+unsafe fn entry_fn<F: Copy>(p: *const u8) -> F {
+    assert_eq!(std::mem::size_of::<F>(), std::mem::size_of::<*const u8>());
+    // SAFETY: same size (checked); validity of the pointer as `F` is the
+    // caller's promise.
+    unsafe { std::mem::transmute_copy::<*const u8, F>(&p) }
+}
+
+/// The single entry point of a kind, if it has one.
+trait Single: Sized {
+    /// # Safety
+    /// As [`entry_fn`] for the first of `p` when `p` has two entries.
+    unsafe fn from_code(p: &[*const u8]) -> Self;
+}
+
+impl Single for () {
+    unsafe fn from_code(_: &[*const u8]) {}
+}
+
+impl Single for PointFn {
+    unsafe fn from_code(p: &[*const u8]) -> PointFn {
+        // SAFETY: the caller's promise.
+        unsafe { entry_fn::<PointFn>(p[0]) }
+    }
+}
+
+impl Kernels {
+    /// Checks `prog` and compiles the point, interval and gradient kernels
+    /// now (the point gradient on first use), with default options. An
+    /// error if any of them cannot be compiled — including a program over
+    /// [`JitOptions::jit_limit`]; [`Kernels::lazy`] never fails for that.
+    pub fn compile(prog: &ir::Program) -> Result<Kernels, JitError> {
+        Kernels::compile_with(prog, &JitOptions::default())
+    }
+
+    /// [`Kernels::compile`] with options.
+    pub fn compile_with(prog: &ir::Program, opts: &JitOptions) -> Result<Kernels, JitError> {
+        let k = Kernels::lazy(prog, opts)?;
+        k.prepare(&Kind::ALL);
+        for kind in Kind::ALL {
+            if let Engine::Interpreter(e) = k.engine(kind) {
+                return Err(e);
+            }
+        }
+        Ok(k)
+    }
+
+    /// Checks `prog` and builds the constant pool; compiles nothing yet.
+    /// Each kind is compiled on first use (or by [`Kernels::prepare`]).
+    pub fn lazy(prog: &ir::Program, opts: &JitOptions) -> Result<Kernels, JitError> {
+        prog.validate().map_err(JitError::InvalidProgram)?;
+        if prog.len() > (i32::MAX as usize) / (8 * POOL_STRIDE) {
+            return Err(JitError::InvalidProgram("program too large".into()));
+        }
+        let mut pool = vec![0.0f64; prog.len() * POOL_STRIDE].into_boxed_slice();
+        for (i, op) in prog.insts.iter().enumerate() {
+            let rec = &mut pool[i * POOL_STRIDE..(i + 1) * POOL_STRIDE];
+            match op {
+                Op::Const(c) => {
+                    let (iv, _) = Interval::new(c.lo, c.hi).normalize();
+                    rec.copy_from_slice(&[c.value, iv.lo, iv.hi]);
+                }
+                Op::Powi(..) => rec.copy_from_slice(&[1.0; 3]),
+                _ => {}
+            }
+        }
+        Ok(Kernels {
+            program: prog.clone(),
+            opts: *opts,
+            point: OnceLock::new(),
+            interval: OnceLock::new(),
+            grad: OnceLock::new(),
+            pgrad: OnceLock::new(),
+            pool,
+        })
+    }
+
+    /// Compiles the given kinds now, in parallel (on rayon's pool), so
+    /// that later calls do not pay for it. Failures are remembered (see
+    /// [`Kernels::engine`]).
+    pub fn prepare(&self, kinds: &[Kind]) {
+        rayon::scope(|s| {
+            for &kind in kinds {
+                s.spawn(move |_| {
+                    let _ = self.engine(kind);
+                });
+            }
+        });
+    }
+
+    /// Which implementation serves `kind` (compiling it if needed).
+    pub fn engine(&self, kind: Kind) -> Engine {
+        let r = match kind {
+            Kind::Point => self.point_k().map(|_| ()),
+            Kind::Interval => self.interval_k().map(|_| ()),
+            Kind::Grad => self.grad_k().map(|_| ()),
+            Kind::PointGrad => self.pgrad_k().map(|_| ()),
+        };
+        match r {
+            Ok(()) => Engine::Jit,
+            Err(e) => Engine::Interpreter(e),
+        }
+    }
+
+    fn compile_kind<S: Single, B: Copy>(&self, kind: Kind) -> Result<Entry<S, B>, JitError> {
+        if self.program.len() > self.opts.jit_limit {
+            return Err(JitError::TooLarge {
+                len: self.program.len(),
+                limit: self.opts.jit_limit,
+            });
+        }
+        let (module, p, info) = build(&self.program, self.pool.as_ptr() as i64, &self.opts, kind)?;
+        // SAFETY: `p` are the finalized entry points of `kind` (single then
+        // batch for the point kind, batch only otherwise: `S::from_code`
+        // takes the first of two or none), declared with `entry_sig`'s
+        // signatures, which are the types `S` and `B` stand for at every
+        // caller below; the code lives as long as `module`, which the
+        // entry owns.
+        let (single, batch) = unsafe {
+            let last = *p.last().ok_or_else(|| JitError::Codegen("no entry".into()))?;
+            (S::from_code(&p), entry_fn::<B>(last))
+        };
+        Ok(Entry {
+            single,
+            batch,
+            info,
+            _module: module,
+        })
+    }
+
+    fn point_k(&self) -> Result<&Entry<PointFn, PointBatchFn>, JitError> {
+        let r = self.point.get_or_init(|| self.compile_kind(Kind::Point));
+        r.as_ref().map_err(Clone::clone)
+    }
+    fn interval_k(&self) -> Result<&Entry<(), BoxBatchFn>, JitError> {
+        let r = self.interval.get_or_init(|| self.compile_kind(Kind::Interval));
+        r.as_ref().map_err(Clone::clone)
+    }
+    fn grad_k(&self) -> Result<&Entry<(), BoxBatchFn>, JitError> {
+        let r = self.grad.get_or_init(|| self.compile_kind(Kind::Grad));
+        r.as_ref().map_err(Clone::clone)
+    }
+    fn pgrad_k(&self) -> Result<&Entry<(), PointGradBatchFn>, JitError> {
+        let r = self.pgrad.get_or_init(|| self.compile_kind(Kind::PointGrad));
+        r.as_ref().map_err(Clone::clone)
+    }
+
+    /// Info on every entry point compiled so far (name, code size, compile
+    /// time, text), in kind order.
+    pub fn info(&self) -> Vec<KernelInfo> {
+        let mut v = Vec::new();
+        if let Some(Ok(e)) = self.point.get() {
+            v.extend(e.info.iter().cloned());
+        }
+        if let Some(Ok(e)) = self.interval.get() {
+            v.extend(e.info.iter().cloned());
+        }
+        if let Some(Ok(e)) = self.grad.get() {
+            v.extend(e.info.iter().cloned());
+        }
+        if let Some(Ok(e)) = self.pgrad.get() {
+            v.extend(e.info.iter().cloned());
+        }
+        v
+    }
+
+    /// Number of IR instructions.
+    pub fn ir_len(&self) -> usize {
+        self.program.len()
+    }
+
+    /// The program the kernels evaluate.
+    pub fn program(&self) -> &ir::Program {
+        &self.program
+    }
+
+    /// Machine-code bytes of the single and batch entry points of `kind`
+    /// (0 if not compiled).
+    pub fn code_bytes(&self, kind: Kind) -> usize {
+        self.info()
+            .iter()
+            .filter(|i| i.kind == kind)
+            .map(|i| i.code_bytes)
+            .sum()
+    }
+
+    /// Compile time of the single and batch entry points of `kind` (zero if
+    /// not compiled).
+    pub fn compile_time(&self, kind: Kind) -> Duration {
+        self.info()
+            .iter()
+            .filter(|i| i.kind == kind)
+            .map(|i| i.compile_time)
+            .sum()
+    }
+
+    /// Info on the point-gradient entry points (compiling them if needed).
+    pub fn point_grad_info(&self) -> Result<&[KernelInfo], JitError> {
+        Ok(&self.pgrad_k()?.info)
+    }
+
+    /// The raw single-point kernel (see the ABI in [`super`]).
+    pub fn point_fn(&self) -> Result<PointFn, JitError> {
+        Ok(self.point_k()?.single)
+    }
+    /// The raw batch point kernel.
+    pub fn point_batch_fn(&self) -> Result<PointBatchFn, JitError> {
+        Ok(self.point_k()?.batch)
+    }
+    /// The raw batch interval kernel.
+    pub fn interval_batch_fn(&self) -> Result<BoxBatchFn, JitError> {
+        Ok(self.interval_k()?.batch)
+    }
+    /// The raw batch gradient kernel.
+    pub fn grad_batch_fn(&self) -> Result<BoxBatchFn, JitError> {
+        Ok(self.grad_k()?.batch)
+    }
+    /// The raw batch point-gradient kernel.
+    pub fn point_grad_batch_fn(&self) -> Result<PointGradBatchFn, JitError> {
+        Ok(self.pgrad_k()?.batch)
+    }
+
+    /// `f(x, y, z, t)`.
+    pub fn point(&self, p: [f64; 4]) -> f64 {
+        match self.point_k() {
+            // SAFETY: the kernel takes four f64 by value and reads no
+            // memory but the constant pool, which `self` keeps alive.
+            Ok(k) => unsafe { (k.single)(p[0], p[1], p[2], p[3]) },
+            Err(_) => crate::eval::point::eval(&self.program, p),
+        }
+    }
+
+    /// `out[i] = f(xs[i], ys[i], zs[i], t)`; all four slices of one length.
+    pub fn point_batch(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        t: f64,
+        out: &mut [f64],
+    ) -> Result<(), JitError> {
+        let n = out.len();
+        if xs.len() != n || ys.len() != n || zs.len() != n {
+            return Err(JitError::BufferLength(format!(
+                "xs {}, ys {}, zs {}, out {n}",
+                xs.len(),
+                ys.len(),
+                zs.len()
+            )));
+        }
+        match self.point_k() {
+            // SAFETY: every pointer is valid for `n` f64 (checked above),
+            // `out` is exclusively borrowed, the kernel reads/writes only
+            // indices < n.
+            Ok(k) => unsafe {
+                (k.batch)(
+                    xs.as_ptr(),
+                    ys.as_ptr(),
+                    zs.as_ptr(),
+                    t,
+                    out.as_mut_ptr(),
+                    n as u64,
+                )
+            },
+            Err(_) => {
+                for i in 0..n {
+                    out[i] = crate::eval::point::eval(&self.program, [xs[i], ys[i], zs[i], t]);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Enclosure of `f` over the box `[x, y, z, t]`.
+    pub fn interval(&self, input: [Interval; 4]) -> DecInterval {
+        let Ok(k) = self.interval_k() else {
+            return crate::eval::interval::eval(&self.program, input);
+        };
+        let inp = flatten(input);
+        let mut out = [0.0; 2];
+        let mut d = 0u8;
+        // SAFETY: one record: `inp` holds 8 f64, `out` 2, `d` 1 byte.
+        unsafe { (k.batch)(inp.as_ptr(), out.as_mut_ptr(), &mut d, 1) };
+        DecInterval {
+            iv: Interval {
+                lo: out[0],
+                hi: out[1],
+            },
+            defined: d != 0,
+        }
+    }
+
+    /// Batch interval: `input` is `n` records of 8 f64 (`[x.lo, x.hi, …,
+    /// t.hi]`), `out` `n` records of 2, `defined` `n` flags.
+    pub fn interval_batch(
+        &self,
+        input: &[f64],
+        out: &mut [f64],
+        defined: &mut [bool],
+    ) -> Result<(), JitError> {
+        let n = check_box_batch(input, out, defined, 2)?;
+        match self.interval_k() {
+            // SAFETY: lengths checked above; the kernel writes only 0 or 1
+            // into `defined`, valid `bool` values.
+            Ok(k) => unsafe {
+                (k.batch)(
+                    input.as_ptr(),
+                    out.as_mut_ptr(),
+                    defined.as_mut_ptr().cast::<u8>(),
+                    n as u64,
+                )
+            },
+            Err(_) => {
+                for i in 0..n {
+                    let r = crate::eval::interval::eval(&self.program, unflatten(&input[8 * i..]));
+                    out[2 * i] = r.iv.lo;
+                    out[2 * i + 1] = r.iv.hi;
+                    defined[i] = r.defined;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `(F, ∂F/∂x, ∂F/∂y, ∂F/∂z)` enclosed over the box `[x, y, z, t]`.
+    pub fn grad(&self, input: [Interval; 4]) -> GradEval {
+        let Ok(k) = self.grad_k() else {
+            return crate::eval::grad::eval(&self.program, input);
+        };
+        let inp = flatten(input);
+        let mut out = [0.0; 8];
+        let mut d = 0u8;
+        // SAFETY: one record: `inp` holds 8 f64, `out` 8, `d` 1 byte.
+        unsafe { (k.batch)(inp.as_ptr(), out.as_mut_ptr(), &mut d, 1) };
+        grad_record(&out, d != 0)
+    }
+
+    /// Batch gradient: `input` `n` records of 8 f64, `out` `n` records of 8
+    /// (`[F.lo, F.hi, Fx.lo, …, Fz.hi]`), `defined` `n` flags.
+    pub fn grad_batch(
+        &self,
+        input: &[f64],
+        out: &mut [f64],
+        defined: &mut [bool],
+    ) -> Result<(), JitError> {
+        let n = check_box_batch(input, out, defined, 8)?;
+        match self.grad_k() {
+            // SAFETY: as in `interval_batch`.
+            Ok(k) => unsafe {
+                (k.batch)(
+                    input.as_ptr(),
+                    out.as_mut_ptr(),
+                    defined.as_mut_ptr().cast::<u8>(),
+                    n as u64,
+                )
+            },
+            Err(_) => {
+                for i in 0..n {
+                    let g = crate::eval::grad::eval(&self.program, unflatten(&input[8 * i..]));
+                    let o = &mut out[8 * i..8 * i + 8];
+                    for (k, iv) in std::iter::once(g.value).chain(g.grad).enumerate() {
+                        o[2 * k] = iv.lo;
+                        o[2 * k + 1] = iv.hi;
+                    }
+                    defined[i] = g.defined;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `f` and `(∂f/∂x, ∂f/∂y, ∂f/∂z)` at `[x, y, z, t]`, as
+    /// [`crate::eval::grad::eval_point`] (the value bit for bit the point
+    /// kernel's).
+    pub fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
+        match self.pgrad_k() {
+            Ok(k) => {
+                let mut out = [0.0; 4];
+                // SAFETY: one record: each coordinate pointer is valid for
+                // 1 f64 and `out` for 4; the kernel reads only those and
+                // the constant pool, which `self` keeps alive.
+                unsafe { (k.batch)(&p[0], &p[1], &p[2], p[3], out.as_mut_ptr(), 1) };
+                (out[0], [out[1], out[2], out[3]])
+            }
+            Err(_) => crate::eval::grad::eval_point(&self.program, p),
+        }
+    }
+
+    /// `out[4i..4i+4] = [f, fx, fy, fz]` at `(xs[i], ys[i], zs[i], t)`;
+    /// `xs ys zs` of one length `n`, `out` of `4n`.
+    pub fn point_grad_batch(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        t: f64,
+        out: &mut [f64],
+    ) -> Result<(), JitError> {
+        let n = xs.len();
+        if ys.len() != n || zs.len() != n || out.len() != 4 * n {
+            return Err(JitError::BufferLength(format!(
+                "xs {n}, ys {}, zs {}, out {} (want {})",
+                ys.len(),
+                zs.len(),
+                out.len(),
+                4 * n
+            )));
+        }
+        match self.pgrad_k() {
+            // SAFETY: `xs ys zs` are valid for `n` f64 and `out` for `4n`
+            // (checked above), `out` is exclusively borrowed; the kernel
+            // touches only those indices and the pool `self` keeps alive.
+            Ok(k) => unsafe {
+                (k.batch)(
+                    xs.as_ptr(),
+                    ys.as_ptr(),
+                    zs.as_ptr(),
+                    t,
+                    out.as_mut_ptr(),
+                    n as u64,
+                )
+            },
+            Err(_) => {
+                for i in 0..n {
+                    let (v, g) =
+                        crate::eval::grad::eval_point(&self.program, [xs[i], ys[i], zs[i], t]);
+                    out[4 * i..4 * i + 4].copy_from_slice(&[v, g[0], g[1], g[2]]);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn flatten(input: [Interval; 4]) -> [f64; 8] {
+    let mut r = [0.0; 8];
+    for (k, iv) in input.iter().enumerate() {
+        r[2 * k] = iv.lo;
+        r[2 * k + 1] = iv.hi;
+    }
+    r
+}
+
+fn unflatten(r: &[f64]) -> [Interval; 4] {
+    std::array::from_fn(|k| Interval {
+        lo: r[2 * k],
+        hi: r[2 * k + 1],
+    })
+}
+
+fn grad_record(out: &[f64], defined: bool) -> GradEval {
+    let iv = |k: usize| Interval {
+        lo: out[2 * k],
+        hi: out[2 * k + 1],
+    };
+    GradEval {
+        value: iv(0),
+        grad: [iv(1), iv(2), iv(3)],
+        defined,
+    }
+}
+
+fn check_box_batch(
+    input: &[f64],
+    out: &[f64],
+    defined: &[bool],
+    out_stride: usize,
+) -> Result<usize, JitError> {
+    let n = defined.len();
+    if input.len() != 8 * n || out.len() != out_stride * n {
+        return Err(JitError::BufferLength(format!(
+            "input {} f64 (want {}), out {} f64 (want {}), defined {n}",
+            input.len(),
+            8 * n,
+            out.len(),
+            out_stride * n
+        )));
+    }
+    Ok(n)
+}
+
+impl crate::eval::Backend for Kernels {
+    fn point(&self, p: [f64; 4]) -> f64 {
+        Kernels::point(self, p)
+    }
+    fn interval(&self, b: [Interval; 4]) -> DecInterval {
+        Kernels::interval(self, b)
+    }
+    fn grad(&self, b: [Interval; 4]) -> GradEval {
+        Kernels::grad(self, b)
+    }
+}
