@@ -9,6 +9,11 @@
 //! to a stack slot and calls a chain-rule helper ([`super::helpers`]) built
 //! on [`crate::interval`]'s enclosures.
 //!
+//! Derivative components known at compile time to be exactly 0 or 1 (of
+//! constants and variables, and what inline rules make of them) emit no
+//! code: `[0,0] + b = b`, `x·[0,0] = [0,0]`, `x·[1,1] = x` hold exactly in
+//! the kernel's arithmetic, so results are those of the dense rules.
+//!
 //! The decoration is false when some op on the output's dependency path was
 //! not defined, continuous *or differentiable* on the whole box (`abs`,
 //! `min`, `max` at a kink, `sqrt` at 0, …). As in
@@ -25,84 +30,172 @@ use crate::ir::{BinOp, Op, Program, UnOp};
 /// `(F, Fx, Fy, Fz)`.
 pub(super) type Dual = [Iv; 4];
 
+/// A derivative component as the lowering knows it: exactly 0 or 1 at
+/// compile time (nothing emitted: forward-mode AD with static sparsity),
+/// or computed.
+#[derive(Clone, Copy)]
+enum D {
+    Zero,
+    One,
+    V(Iv),
+}
+
+/// A value and its three derivative components.
+#[derive(Clone, Copy)]
+struct G {
+    v: Iv,
+    d: [D; 3],
+    /// The value's bounds when it is a constant of known sign.
+    k: Option<interval::Konst>,
+}
+
+/// The component as an interval (`[0, 0]`, `[1, 1]` from the given SSA
+/// constants).
+fn iv_of(d: D, zero: Value, one: Value) -> Iv {
+    match d {
+        D::Zero => (zero, zero),
+        D::One => (one, one),
+        D::V(iv) => iv,
+    }
+}
+
+/// `a ± b` on components. `[0,0] + b = b` and `b − [0,0] = b` exactly; a
+/// known `1` is materialised.
+fn d_add(env: &mut Env, sub: bool, a: D, b: D, zero: Value, one: Value) -> D {
+    match (a, b) {
+        (x, D::Zero) => x,
+        (D::Zero, y) if !sub => y,
+        (D::Zero, y) => D::V(neg(env, iv_of(y, zero, one))),
+        (x, y) => {
+            let op = if sub { BinOp::Sub } else { BinOp::Add };
+            D::V(interval::binary(env, op, iv_of(x, zero, one), iv_of(y, zero, one)).0)
+        }
+    }
+}
+
+/// `x · d` for an interval `x` and a component: `x · [0, 0] = [0, 0]` (0·∞
+/// counts as 0 in interval arithmetic, as the kernel's product rule does)
+/// and `x · [1, 1] = x`, exactly.
+fn d_scale(env: &mut Env, x: Iv, xk: Option<interval::Konst>, d: D) -> D {
+    match d {
+        D::Zero => D::Zero,
+        D::One => D::V(x),
+        D::V(iv) => D::V(interval::mul_known(env, x, xk, iv, None)),
+    }
+}
+
+fn neg(env: &mut Env, (l, h): Iv) -> Iv {
+    (env.b.ins().fneg(h), env.b.ins().fneg(l))
+}
+
 /// Emits the body; returns the output tuple and the decoration (i8).
 pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (Dual, Value) {
     let flags_in: [Flag; 4] = input.map(|(_, f)| f);
     let input: [Iv; 4] = input.map(|(iv, _)| iv);
     let zero = env.b.ins().f64const(0.0);
     let one = env.b.ins().f64const(1.0);
-    let z = (zero, zero);
+    let full = |g: G| -> Dual {
+        [
+            g.v,
+            iv_of(g.d[0], zero, one),
+            iv_of(g.d[1], zero, one),
+            iv_of(g.d[2], zero, one),
+        ]
+    };
+    let from = |r: Dual| G {
+        v: r[0],
+        d: [D::V(r[1]), D::V(r[2]), D::V(r[3])],
+        k: None,
+    };
     // Per value: the tuple, the value's flag F and the derivatives' flag D
     // (tracked apart as in the reference: `a^0` has derivative 0 whatever
     // `a`'s derivatives were).
-    let mut vals: Vec<(Dual, Flag, Flag)> = Vec::with_capacity(prog.len());
+    let mut vals: Vec<(G, Flag, Flag)> = Vec::with_capacity(prog.len());
     for (i, op) in prog.insts.iter().enumerate() {
-        let (v, d): (Dual, Option<Value>) = match *op {
+        let (v, d): (G, Option<Value>) = match *op {
             Op::Var(var) => {
-                let mut g = [input[var.index()], z, z, z];
+                let mut g = G {
+                    v: input[var.index()],
+                    d: [D::Zero; 3],
+                    k: None,
+                };
                 if var.index() < 3 {
-                    g[1 + var.index()] = (one, one);
+                    g.d[var.index()] = D::One;
                 }
                 (g, None)
             }
             Op::Const(_) => {
                 let (v, d) = interval::lower_op(env, i, op, &[], &input);
-                ([v, z, z, z], d)
+                let k = interval::konst(prog, crate::ir::Value(i as u32));
+                (G { v, d: [D::Zero; 3], k }, d)
             }
             Op::Unary(UnOp::Neg, a) => {
                 let a = vals[a.index()].0;
-                (
-                    a.map(|(l, h)| (env.b.ins().fneg(h), env.b.ins().fneg(l))),
-                    None,
-                )
+                let v = neg(env, a.v);
+                let d = a.d.map(|c| match c {
+                    D::Zero => D::Zero,
+                    c => D::V(neg(env, iv_of(c, zero, one))),
+                });
+                (G { v, d, k: None }, None)
             }
             Op::Unary(UnOp::Square, a) => {
                 let a = vals[a.index()].0;
-                let (f, _) = interval::unary(env, UnOp::Square, a[0]);
+                let (f, _) = interval::unary(env, UnOp::Square, a.v);
                 // d(a²) = (2a)·da; doubling is exact but for overflow,
                 // which must go outward: the lower bound rounded down.
                 let two_a = (
-                    rounding::add_down(&mut env.b, a[0].0, a[0].0),
-                    rounding::add_up(&mut env.b, a[0].1, a[0].1),
+                    rounding::add_down(&mut env.b, a.v.0, a.v.0),
+                    rounding::add_up(&mut env.b, a.v.1, a.v.1),
                 );
-                let mut g = [f, z, z, z];
-                for k in 1..4 {
-                    g[k] = interval::mul(env, two_a, a[k]);
-                }
-                (g, None)
+                let d = a.d.map(|c| d_scale(env, two_a, None, c));
+                (G { v: f, d, k: None }, None)
             }
             Op::Binary(op @ (BinOp::Add | BinOp::Sub | BinOp::Mul), a, b) => {
                 let (a, b) = (vals[a.index()].0, vals[b.index()].0);
-                let mut g = [z; 4];
-                if op == BinOp::Mul {
-                    g[0] = interval::mul(env, a[0], b[0]);
-                    for k in 1..4 {
-                        let p = interval::mul(env, a[0], b[k]);
-                        let q = interval::mul(env, a[k], b[0]);
-                        g[k] = interval::binary(env, BinOp::Add, p, q).0;
-                    }
+                let g = if op == BinOp::Mul {
+                    let v = interval::mul_known(env, a.v, a.k, b.v, b.k);
+                    let d = std::array::from_fn(|k| {
+                        let p = d_scale(env, a.v, a.k, b.d[k]);
+                        let q = d_scale(env, b.v, b.k, a.d[k]);
+                        d_add(env, false, p, q, zero, one)
+                    });
+                    G { v, d, k: None }
                 } else {
-                    for k in 0..4 {
-                        g[k] = interval::binary(env, op, a[k], b[k]).0;
-                    }
-                }
+                    let v = interval::binary(env, op, a.v, b.v).0;
+                    let d = std::array::from_fn(|k| {
+                        d_add(env, op == BinOp::Sub, a.d[k], b.d[k], zero, one)
+                    });
+                    G { v, d, k: None }
+                };
                 (g, None)
             }
             Op::Unary(u, a) => {
-                env.call_gd(super::helpers::unop_code(u), vals[a.index()].0, None, 0)
+                let (r, d) = env.call_gd(
+                    super::helpers::unop_code(u),
+                    full(vals[a.index()].0),
+                    None,
+                    0,
+                );
+                (from(r), d)
             }
-            Op::Binary(op, a, b) => env.call_gd(
-                super::helpers::binop_code(op) + GD_BINARY_BASE,
-                vals[a.index()].0,
-                Some(vals[b.index()].0),
-                0,
-            ),
-            Op::Powi(a, n) => env.call_gd(
-                super::helpers::GD_POWI_CODE + GD_BINARY_BASE,
-                vals[a.index()].0,
-                None,
-                n,
-            ),
+            Op::Binary(op, a, b) => {
+                let (r, d) = env.call_gd(
+                    super::helpers::binop_code(op) + GD_BINARY_BASE,
+                    full(vals[a.index()].0),
+                    Some(full(vals[b.index()].0)),
+                    0,
+                );
+                (from(r), d)
+            }
+            Op::Powi(a, n) => {
+                let (r, d) = env.call_gd(
+                    super::helpers::GD_POWI_CODE + GD_BINARY_BASE,
+                    full(vals[a.index()].0),
+                    None,
+                    n,
+                );
+                (from(r), d)
+            }
         };
         // Own flags: the helpers return bit 0 = value defined, bit 1 =
         // derivatives defined; inline ops only have a value flag.
@@ -133,7 +226,7 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
     }
     let (g, f, dd) = vals[prog.output.index()];
     let ok = interval::and(env, f, dd);
-    (g, interval::flag_value(env, ok))
+    (full(g), interval::flag_value(env, ok))
 }
 
 /// Codes at or above this go to the binary gradient helper (minus it).

@@ -39,7 +39,13 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (I
     let mut vals: Vec<(Iv, Flag)> = Vec::with_capacity(prog.len());
     let ivs: [Iv; 4] = input.map(|(iv, _)| iv);
     for (i, op) in prog.insts.iter().enumerate() {
-        let (v, own) = lower_op(env, i, op, &vals, &ivs);
+        let (v, own) = match *op {
+            Op::Binary(BinOp::Mul, a, b) => {
+                let (x, y) = (vals[a.index()].0, vals[b.index()].0);
+                (mul_known(env, x, konst(prog, a), y, konst(prog, b)), None)
+            }
+            _ => lower_op(env, i, op, &vals, &ivs),
+        };
         let mut d = match *op {
             Op::Var(var) => input[var.index()].1,
             _ => own,
@@ -231,6 +237,70 @@ pub(super) fn mul(env: &mut Env, a: Iv, c: Iv) -> Iv {
     let nlo0 = seed(b, na.1, c.1);
     let nlo = chain(b, nlo0, [(na.0, c.0), (na.0, c.1), (na.1, c.0)]);
     (b.ins().fneg(nlo), hi)
+}
+
+/// A constant's enclosure `[lo, hi]` as known at compile time (the
+/// values the pool holds), when its sign is known: `0 < lo` or `hi < 0`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Konst {
+    pub lo: f64,
+    pub hi: f64,
+}
+
+/// [`Konst`] of value `v` of `prog`, if `v` is such a constant.
+pub(super) fn konst(prog: &Program, v: crate::ir::Value) -> Option<Konst> {
+    match prog.insts[v.index()] {
+        Op::Const(c) => {
+            let (iv, _) = Interval::new(c.lo, c.hi).normalize();
+            (iv.lo > 0.0 || iv.hi < 0.0).then_some(Konst {
+                lo: iv.lo,
+                hi: iv.hi,
+            })
+        }
+        _ => None,
+    }
+}
+
+/// `x · y`, by [`mul_by_konst`] when either factor is a constant of known
+/// sign, else [`mul`].
+pub(super) fn mul_known(env: &mut Env, x: Iv, kx: Option<Konst>, y: Iv, ky: Option<Konst>) -> Iv {
+    match (kx, ky) {
+        (_, Some(k)) => mul_by_konst(env, x, y, k),
+        (Some(k), None) => mul_by_konst(env, y, x, k),
+        (None, None) => mul(env, x, y),
+    }
+}
+
+/// `x · c` for a constant `c ⊆ [k.lo, k.hi]` of known sign (`c` the SSA
+/// values of those bounds). `c·x` is monotone in `x` with the sign of `c`,
+/// so each bound is one product, with the factor bound chosen by the sign
+/// of the `x` bound when `c` is not a point; no product is `0·∞` (`c` is
+/// finite and non-zero).
+pub(super) fn mul_by_konst(env: &mut Env, x: Iv, c: Iv, k: Konst) -> Iv {
+    let b = &mut env.b;
+    let point = k.lo == k.hi;
+    // The factor bound to use against an `x` bound `v`: `big` when `v ≥ 0`,
+    // `small` otherwise.
+    let pick = |b: &mut cranelift_frontend::FunctionBuilder, v: Value, big: Value, small: Value| {
+        if point {
+            big
+        } else {
+            let zero = b.ins().f64const(0.0);
+            let nonneg = b.ins().fcmp(FloatCC::GreaterThanOrEqual, v, zero);
+            b.ins().select(nonneg, big, small)
+        }
+    };
+    if k.lo > 0.0 {
+        // Increasing: hi from x.hi, lo from x.lo.
+        let ch = pick(b, x.1, c.1, c.0);
+        let cl = pick(b, x.0, c.0, c.1);
+        (rounding::mul_down(b, cl, x.0), rounding::mul_up(b, ch, x.1))
+    } else {
+        // Decreasing: hi from x.lo (larger |c| when x.lo ≤ 0), lo from x.hi.
+        let ch = pick(b, x.0, c.1, c.0);
+        let cl = pick(b, x.1, c.0, c.1);
+        (rounding::mul_down(b, cl, x.1), rounding::mul_up(b, ch, x.0))
+    }
 }
 
 /// `acc < p ? p : acc`: the larger of `p` and `acc`, and `acc` when `p` is
