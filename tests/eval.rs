@@ -4,7 +4,7 @@
 mod common;
 
 use common::{check_degenerate, check_grad, check_interval};
-use isoc::eval::{Backend, GradEval, Reference};
+use isoc::eval::{Evaluator, GradEval, Reference};
 use isoc::interval::{DecInterval, Interval};
 use isoc::ir::{BinOp, Op, Program, UnOp, Value, Var};
 
@@ -14,9 +14,12 @@ backend_suite!(reference, |p: &Program| Reference(p.clone()));
 /// undefinedness flag and reports a zero gradient.
 struct Broken(Reference, u8);
 
-impl Backend for Broken {
+impl Evaluator for Broken {
     fn point(&self, p: [f64; 4]) -> f64 {
         self.0.point(p)
+    }
+    fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
+        self.0.point_grad(p)
     }
     fn interval(&self, b: [Interval; 4]) -> DecInterval {
         let r = self.0.interval(b);

@@ -4,8 +4,7 @@
 //! a cell is never dropped silently; `guaranteed` never lies; a surface
 //! that leaves the domain gives a clean open mesh.
 
-use isoc::mesh::mesher::{self, MeshOptions, MeshReport, SurfaceField};
-use isoc::mesh::roots::Field;
+use isoc::mesh::mesher::{self, MeshOptions, MeshReport};
 use isoc::mesh::{Mesh, topology};
 use isoc::octree::{OctreeOptions, TopologyTest};
 use isoc::{CompileOptions, Surface};
@@ -41,10 +40,13 @@ fn check_closed(name: &str, s: &Surface, mesh: &Mesh, r: &MeshReport, genera: &[
     let mut want = genera.to_vec();
     want.sort();
     assert_eq!(got, want, "{name}: genus {t:?}");
-    let field = SurfaceField { surface: s, t: 0.0 };
+    let gradient = |p: glam::DVec3| {
+        let (v, g) = s.point_grad([p.x, p.y, p.z, 0.0]);
+        (v, glam::DVec3::from_array(g))
+    };
     // Every vertex on f = 0 to within a few ulps of the step across it.
     for (i, &p) in mesh.positions.iter().enumerate() {
-        let (v, g) = field.gradient(p);
+        let (v, g) = gradient(p);
         let h = 1e-12 * (1.0 + p.abs().max_element());
         let bound = 8.0 * g.length() * h + 1e-300;
         assert!(
@@ -61,7 +63,7 @@ fn check_closed(name: &str, s: &Surface, mesh: &Mesh, r: &MeshReport, genera: &[
             .map(|&i| mesh.positions[i as usize])
             .sum::<glam::DVec3>()
             / 3.0;
-        if n.dot(field.gradient(c).1) > 0.0 {
+        if n.dot(gradient(c).1) > 0.0 {
             agree += 1;
         }
     }

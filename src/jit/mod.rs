@@ -93,6 +93,7 @@
 //! in f64 (point gradient). See [`point`], [`interval`], [`grad`] and
 //! [`pgrad`] for which ops are inline.
 
+mod evaluator;
 mod grad;
 pub mod helpers;
 mod interval;
@@ -1121,16 +1122,4 @@ fn store_box_result(
         env.b.ins().store(f, hi, out, (16 * k + 8) as i32);
     }
     d
-}
-
-impl crate::eval::Backend for Kernels {
-    fn point(&self, p: [f64; 4]) -> f64 {
-        Kernels::point(self, p)
-    }
-    fn interval(&self, b: [Interval; 4]) -> DecInterval {
-        Kernels::interval(self, b)
-    }
-    fn grad(&self, b: [Interval; 4]) -> GradEval {
-        Kernels::grad(self, b)
-    }
 }

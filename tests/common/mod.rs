@@ -1,6 +1,6 @@
 //! Shared test support: random IR programs and boxes (proptest strategies),
 //! point sampling, the soundness checks, and [`backend_suite!`], the one
-//! test suite every [`Backend`] (reference interpreters, JIT) must pass.
+//! test suite every [`Evaluator`] (reference interpreters, JIT) must pass.
 //!
 //! Use from a test file:
 //!
@@ -15,7 +15,7 @@
 
 pub mod exact;
 
-use isoc::eval::{Backend, Reference, grad, point};
+use isoc::eval::{Evaluator, Reference, grad, point};
 use isoc::interval::Interval;
 use isoc::ir::{BinOp, Const, Op, Program, UnOp, Value, Var};
 use proptest::prelude::*;
@@ -408,7 +408,7 @@ fn undefined_at(program: &Program, p: [f64; 4]) -> bool {
 /// backend's and the reference's point values lie in the backend's
 /// interval; the backend's point value equals the reference's; where the
 /// value is undefined the interval says so.
-pub fn check_interval<B: Backend>(
+pub fn check_interval<B: Evaluator>(
     backend: &B,
     program: &Program,
     b: &[Interval; 4],
@@ -453,7 +453,7 @@ pub fn check_interval<B: Backend>(
 /// Gradient soundness on one program and box: the value interval of the
 /// gradient kernel contains the point values, and the gradient intervals
 /// contain the point gradients (forward-mode AD in f64) at sample points.
-pub fn check_grad<B: Backend>(
+pub fn check_grad<B: Evaluator>(
     backend: &B,
     program: &Program,
     b: &[Interval; 4],
@@ -498,7 +498,7 @@ pub fn check_grad<B: Backend>(
 
 /// The degenerate box `[p, p]`: interval and gradient kernels contain the
 /// point value and gradient at `p`.
-pub fn check_degenerate<B: Backend>(
+pub fn check_degenerate<B: Evaluator>(
     backend: &B,
     program: &Program,
     p: [f64; 4],
