@@ -27,7 +27,7 @@
 //!
 //! # Evaluation
 //!
-//! Any [`Evaluator`] will do. Cells are examined in chunks of [`BATCH`]:
+//! Any [`Evaluator`] will do. Cells are examined in chunks of `BATCH`:
 //! one [`Evaluator::grad_batch`] over the cells, one
 //! [`Evaluator::interval_batch`] at their centres (the mean-value form),
 //! and one [`Evaluator::interval_batch`] over the cells whose gradient flag

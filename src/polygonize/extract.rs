@@ -123,8 +123,8 @@ pub fn active_cells<E: Evaluator + ?Sized>(
         cell.iter().any(|&c| negative(values.get(c)) != first)
     };
     let mut count = 0;
-    // Cells with a ghost corner not yet evaluated are kept as candidates
-    // (in order) and decided once every ghost has its value.
+    // Cells with a ghost corner are kept as candidates (in order) and
+    // decided once every ghost met has its value.
     let mut cells: Vec<(DualCell, bool)> = Vec::new();
     let mut new_ghosts: Vec<Corner> = Vec::new();
     dual::for_each_cell(tree, |cell| {
