@@ -9,7 +9,7 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use isoc::mesh::mesher::{self, MeshOptions, SurfaceField};
+use isoc::mesh::mesher::{self, MeshOptions};
 use isoc::mesh::smooth;
 use isoc::octree::{Octree, OctreeOptions};
 use isoc::polygonize::extract::{self, CornerValues};
@@ -31,10 +31,6 @@ fn stages(c: &mut Criterion) {
         ("twotorus", &[6, 7]),
     ] {
         let s = surface(name);
-        let field = SurfaceField {
-            surface: &s,
-            t: 0.0,
-        };
         for &level in levels {
             let opts = OctreeOptions {
                 max_level: level,
@@ -47,20 +43,20 @@ fn stages(c: &mut Criterion) {
             let tree = Octree::build(&s, s.domain, &opts, &|_, _| {});
             g.bench_function(id("dual"), |b| {
                 b.iter(|| {
-                    let mut values = CornerValues::at_leaves(&tree, &field);
-                    black_box(extract::active_cells(&tree, &field, &mut values))
+                    let mut values = CornerValues::at_leaves(&tree, &s, 0.0);
+                    black_box(extract::active_cells(&tree, &s, 0.0, &mut values))
                 })
             });
-            let mut values = CornerValues::at_leaves(&tree, &field);
-            let (active, _) = extract::active_cells(&tree, &field, &mut values);
+            let mut values = CornerValues::at_leaves(&tree, &s, 0.0);
+            let (active, _) = extract::active_cells(&tree, &s, 0.0, &mut values);
             g.bench_function(id("polygonize"), |b| {
-                b.iter(|| black_box(extract::extract(&tree, &field, &values, &active)))
+                b.iter(|| black_box(extract::extract(&tree, &s, 0.0, &values, &active)))
             });
-            let (mesh, _) = extract::extract(&tree, &field, &values, &active);
+            let (mesh, _) = extract::extract(&tree, &s, 0.0, &values, &active);
             g.bench_function(id("smooth"), |b| {
                 b.iter(|| {
                     let mut m = mesh.clone();
-                    black_box(smooth::smooth(&mut m, &field, 2))
+                    black_box(smooth::smooth(&mut m, &s, 0.0, 2))
                 })
             });
             let all = MeshOptions {

@@ -20,7 +20,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use isoc::mesh::mesher::{self, MeshOptions, SurfaceField};
+use isoc::mesh::mesher::{self, MeshOptions};
 use isoc::octree::OctreeOptions;
 use isoc::twin::{Tracker, TwinOptions, geometric};
 use isoc::{CompileOptions, Surface};
@@ -90,12 +90,12 @@ fn twin(c: &mut Criterion) {
         });
 
         let mech = tm.mechanical().clone();
-        let field = SurfaceField { surface: &s, t: tt };
         g.bench_function(format!("geometric/{name}"), |b| {
             b.iter(|| {
                 black_box(geometric::refine(
                     &mech,
-                    &field,
+                    &s,
+                    tt,
                     opts.alpha_deg,
                     opts.passes,
                 ))

@@ -9,6 +9,7 @@
 use std::sync::Arc;
 
 use crate::error::Error;
+use crate::eval::Evaluator;
 use crate::eval::grad::GradEval;
 use crate::interval::{DecInterval, Interval};
 use crate::ir::Program;
@@ -250,4 +251,33 @@ fn flatten_boxes(boxes: &[[Interval; 4]]) -> Vec<f64> {
         .iter()
         .flat_map(|b| b.iter().flat_map(|i| [i.lo, i.hi]))
         .collect()
+}
+
+/// A surface evaluates through its JIT kernels (see [`crate::eval`]); the
+/// inherent methods above stay as they are.
+impl Evaluator for Surface {
+    fn point(&self, p: [f64; 4]) -> f64 {
+        Surface::point(self, p)
+    }
+    fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
+        Surface::point_grad(self, p)
+    }
+    fn interval(&self, b: [Interval; 4]) -> DecInterval {
+        Surface::interval(self, b)
+    }
+    fn grad(&self, b: [Interval; 4]) -> GradEval {
+        Surface::grad(self, b)
+    }
+    fn point_batch(&self, xs: &[f64], ys: &[f64], zs: &[f64], t: f64, out: &mut [f64]) {
+        Evaluator::point_batch(self.kernels(), xs, ys, zs, t, out)
+    }
+    fn point_grad_batch(&self, pts: &[[f64; 3]], t: f64, out: &mut [(f64, [f64; 3])]) {
+        Evaluator::point_grad_batch(self.kernels(), pts, t, out)
+    }
+    fn interval_batch(&self, boxes: &[[Interval; 4]], out: &mut [DecInterval]) {
+        Evaluator::interval_batch(self.kernels(), boxes, out)
+    }
+    fn grad_batch(&self, boxes: &[[Interval; 4]], out: &mut [GradEval]) {
+        Evaluator::grad_batch(self.kernels(), boxes, out)
+    }
 }

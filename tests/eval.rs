@@ -3,8 +3,8 @@
 
 mod common;
 
-use common::{check_degenerate, check_grad, check_interval};
-use isoc::eval::{Backend, GradEval, Reference};
+use common::{check_batches, check_degenerate, check_grad, check_interval, check_point_grad};
+use isoc::eval::{Evaluator, GradEval, Reference};
 use isoc::interval::{DecInterval, Interval};
 use isoc::ir::{BinOp, Op, Program, UnOp, Value, Var};
 
@@ -14,9 +14,12 @@ backend_suite!(reference, |p: &Program| Reference(p.clone()));
 /// undefinedness flag and reports a zero gradient.
 struct Broken(Reference, u8);
 
-impl Backend for Broken {
+impl Evaluator for Broken {
     fn point(&self, p: [f64; 4]) -> f64 {
         self.0.point(p)
+    }
+    fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
+        self.0.point_grad(p)
     }
     fn interval(&self, b: [Interval; 4]) -> DecInterval {
         let r = self.0.interval(b);
@@ -75,6 +78,78 @@ fn checks_catch_a_wrong_gradient() {
     let b = boxed(Interval::new(1.0, 2.0));
     assert!(check_grad(&Reference(p.clone()), &p, &b, 3).is_ok());
     assert!(check_grad(&Broken(Reference(p.clone()), 0), &p, &b, 3).is_err());
+}
+
+/// Wrong batch or point-gradient forms over a correct reference: mode 0
+/// drops the last point of a point batch (leaves it 0), 1 swaps the last
+/// two boxes of an interval batch, 2 returns the gradient with the wrong
+/// sign, 3 a point-gradient value one ulp off.
+struct BrokenBatch(Reference, u8);
+
+impl Evaluator for BrokenBatch {
+    fn point(&self, p: [f64; 4]) -> f64 {
+        self.0.point(p)
+    }
+    fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
+        let (v, g) = self.0.point_grad(p);
+        match self.1 {
+            2 => (v, g.map(|d| -d)),
+            3 => (v.next_up(), g),
+            _ => (v, g),
+        }
+    }
+    fn interval(&self, b: [Interval; 4]) -> DecInterval {
+        self.0.interval(b)
+    }
+    fn grad(&self, b: [Interval; 4]) -> GradEval {
+        self.0.grad(b)
+    }
+    fn point_batch(&self, xs: &[f64], ys: &[f64], zs: &[f64], t: f64, out: &mut [f64]) {
+        self.0.point_batch(xs, ys, zs, t, out);
+        if self.1 == 0
+            && let Some(last) = out.last_mut()
+        {
+            *last = 0.0;
+        }
+    }
+    fn interval_batch(&self, boxes: &[[Interval; 4]], out: &mut [DecInterval]) {
+        self.0.interval_batch(boxes, out);
+        if self.1 == 1 && out.len() >= 2 {
+            let n = out.len();
+            out.swap(n - 1, n - 2);
+        }
+    }
+}
+
+#[test]
+fn checks_catch_wrong_batches_and_point_gradients() {
+    // x·x + 1: never 0, gradient 2x.
+    let p = prog(vec![
+        Op::Var(Var::X),
+        Op::Binary(BinOp::Mul, Value(0), Value(0)),
+        Op::Const(isoc::ir::Const {
+            value: 1.0,
+            lo: 1.0,
+            hi: 1.0,
+            defined: true,
+        }),
+        Op::Binary(BinOp::Add, Value(1), Value(2)),
+    ]);
+    let pts = [[1.0, 0.0, 0.0], [2.0, 5.0, 0.0], [3.0, 0.0, -1.0]];
+    let boxes = [
+        boxed(Interval::new(0.0, 1.0)),
+        boxed(Interval::new(2.0, 3.0)),
+    ];
+    let good = Reference(p.clone());
+    assert!(check_batches(&good, &pts, 0.0, &boxes).is_ok());
+    assert!(check_batches(&BrokenBatch(good.clone(), 0), &pts, 0.0, &boxes).is_err());
+    assert!(check_batches(&BrokenBatch(good.clone(), 1), &pts, 0.0, &boxes).is_err());
+    // Empty batches are fine, and so is a one-box swap (nothing to swap).
+    assert!(check_batches(&BrokenBatch(good.clone(), 1), &[], 0.0, &boxes[..1]).is_ok());
+    let at = [1.5, 0.0, 0.0, 0.0];
+    assert!(check_point_grad(&good, &p, at).is_ok());
+    assert!(check_point_grad(&BrokenBatch(good.clone(), 2), &p, at).is_err());
+    assert!(check_point_grad(&BrokenBatch(good, 3), &p, at).is_err());
 }
 
 fn decimal(v: f64) -> isoc::ir::Const {

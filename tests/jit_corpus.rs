@@ -4,7 +4,7 @@
 //! is asserted.
 
 use isoc::CompileOptions;
-use isoc::eval::{Backend, Reference};
+use isoc::eval::{Evaluator, Reference};
 use isoc::interval::Interval;
 use isoc::jit::{JitOptions, Kernels, Kind};
 

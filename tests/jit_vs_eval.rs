@@ -5,7 +5,7 @@
 
 mod common;
 
-use isoc::eval::{Backend, Reference};
+use isoc::eval::{Evaluator, Reference};
 use isoc::ir::{BinOp, Op, Program, UnOp, Value, Var};
 use isoc::jit::{JitOptions, Kernels};
 

@@ -4,8 +4,8 @@
 //! a cell is never dropped silently; `guaranteed` never lies; a surface
 //! that leaves the domain gives a clean open mesh.
 
-use isoc::mesh::mesher::{self, MeshOptions, MeshReport, SurfaceField};
-use isoc::mesh::roots::Field;
+use isoc::eval::Reference;
+use isoc::mesh::mesher::{self, MeshOptions, MeshReport};
 use isoc::mesh::{Mesh, topology};
 use isoc::octree::{OctreeOptions, TopologyTest};
 use isoc::{CompileOptions, Surface};
@@ -41,10 +41,13 @@ fn check_closed(name: &str, s: &Surface, mesh: &Mesh, r: &MeshReport, genera: &[
     let mut want = genera.to_vec();
     want.sort();
     assert_eq!(got, want, "{name}: genus {t:?}");
-    let field = SurfaceField { surface: s, t: 0.0 };
+    let gradient = |p: glam::DVec3| {
+        let (v, g) = s.point_grad([p.x, p.y, p.z, 0.0]);
+        (v, glam::DVec3::from_array(g))
+    };
     // Every vertex on f = 0 to within a few ulps of the step across it.
     for (i, &p) in mesh.positions.iter().enumerate() {
-        let (v, g) = field.gradient(p);
+        let (v, g) = gradient(p);
         let h = 1e-12 * (1.0 + p.abs().max_element());
         let bound = 8.0 * g.length() * h + 1e-300;
         assert!(
@@ -61,7 +64,7 @@ fn check_closed(name: &str, s: &Surface, mesh: &Mesh, r: &MeshReport, genera: &[
             .map(|&i| mesh.positions[i as usize])
             .sum::<glam::DVec3>()
             / 3.0;
-        if n.dot(field.gradient(c).1) > 0.0 {
+        if n.dot(gradient(c).1) > 0.0 {
             agree += 1;
         }
     }
@@ -245,4 +248,48 @@ fn a_closed_surface_near_the_domain_boundary_stays_closed() {
     };
     let (m, r) = mesher::mesh(&s, &opts, &|_| {});
     check_closed("Fig. 1 torus, k_max 4.9", &s, &m, &r, &[1]);
+}
+
+/// The mesher through the reference interpreters (no JIT at all) gives a
+/// closed mesh of the right genus, and the very mesh the JIT gives: the
+/// same triangles and, bit for bit, the same vertex positions and normals
+/// (the two evaluators agree bit for bit on these polynomials).
+#[test]
+fn the_reference_interpreter_meshes_exactly_like_the_jit() {
+    for (name, src, genus) in [("sphere", SPHERE, 0), ("torus", TORUS, 1)] {
+        let s = surface(src);
+        let opts = MeshOptions {
+            octree: OctreeOptions {
+                max_level: 5,
+                min_level: 3,
+                kmax: 1.0,
+                test: TopologyTest::Paper,
+                t: 0.0,
+            },
+            smooth: 2,
+            domain: None,
+        };
+        let (jm, jr) = mesher::mesh(&s, &opts, &|_| {});
+        let reference = Reference(s.program.clone());
+        let (rm, rr) = mesher::mesh_with(&reference, s.domain, &opts, &|_| {});
+        check_closed(name, &s, &rm, &rr, &[genus]);
+        assert!(!rm.triangles.is_empty(), "{name}: empty mesh");
+        assert_eq!(rm.triangles.len(), jm.triangles.len(), "{name}: triangles");
+        assert_eq!(rm.triangles, jm.triangles, "{name}: connectivity");
+        let bits = |m: &Mesh| -> Vec<[u64; 6]> {
+            m.positions
+                .iter()
+                .zip(&m.normals)
+                .map(|(p, n)| {
+                    let [a, b, c] = p.to_array().map(f64::to_bits);
+                    let [d, e, f] = n.to_array().map(f64::to_bits);
+                    [a, b, c, d, e, f]
+                })
+                .collect()
+        };
+        assert_eq!(bits(&rm), bits(&jm), "{name}: vertex positions or normals");
+        assert_eq!(rr.topology, jr.topology, "{name}");
+        assert_eq!(rr.octree, jr.octree, "{name}: octree");
+        assert_eq!(rr.smoothing_moves, jr.smoothing_moves, "{name}");
+    }
 }

@@ -1,6 +1,8 @@
 //! Reference evaluators: simple, obviously correct interpreters over the IR
 //! (`point`, `interval`, `grad`), the oracles that the JIT and the mesher are
-//! tested against.
+//! tested against, and [`Evaluator`], the one trait through which everything
+//! downstream (octree, extraction, mesher, twin tracker) evaluates a
+//! function.
 //!
 //! # Contract
 //!
@@ -19,9 +21,28 @@
 //! Each evaluator walks the instruction list once, front to back (no
 //! recursion), holding one value per instruction.
 //!
-//! [`Backend`] is the common face of every implementation of the three
-//! kernels (the reference interpreters here, the JIT later), so that one
-//! test suite (`tests/common`) runs against all of them.
+//! # The evaluator trait
+//!
+//! [`Evaluator`] is the common face of every implementation of the kernels:
+//! the reference interpreters ([`Reference`]), the JIT
+//! ([`crate::jit::Kernels`]) and a compiled [`crate::Surface`]. One test
+//! suite (`tests/common`, `backend_suite!`) runs against all of them. Inputs
+//! are `[x, y, z, t]`. Each batch method must give, element by element,
+//! exactly what the single method gives (bit for bit, every NaN equal to
+//! every NaN); the default bodies are loops over the single methods, and an
+//! implementation overrides them only with something faster that keeps that
+//! promise. Batch methods panic when `out` and the inputs differ in length
+//! (a caller's bug, not a data condition). Batch shapes:
+//!
+//! * [`Evaluator::point_batch`]: struct of arrays, `xs ys zs` and one `t`,
+//!   as the JIT's batch point kernel reads them;
+//! * [`Evaluator::point_grad_batch`]: array of points `[x, y, z]` and one
+//!   `t`, results `(f, ∇f)` per point (the mesher's positions are points);
+//! * [`Evaluator::interval_batch`], [`Evaluator::grad_batch`]: array of
+//!   boxes.
+//!
+//! Implementations are `Sync`: the octree and the mesher evaluate from
+//! several threads at once.
 
 pub mod grad;
 pub mod interval;
@@ -32,23 +53,82 @@ pub use grad::GradEval;
 use crate::interval::{DecInterval, Interval};
 use crate::ir::Program;
 
-/// The three kernels of a compiled surface. Inputs are `[x, y, z, t]`.
-pub trait Backend {
+/// The kernels of a compiled function. See the module doc.
+pub trait Evaluator: Sync {
     /// Point value (NaN outside the domain).
     fn point(&self, p: [f64; 4]) -> f64;
+    /// Point value and gradient `(∂/∂x, ∂/∂y, ∂/∂z)` by forward-mode AD in
+    /// f64 ([`grad::eval_point`]); the value is [`Evaluator::point`]'s.
+    fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]);
     /// Decorated enclosure over a box.
     fn interval(&self, b: [Interval; 4]) -> DecInterval;
     /// Interval value and interval gradient over a box.
     fn grad(&self, b: [Interval; 4]) -> GradEval;
+
+    /// `out[i] = point([xs[i], ys[i], zs[i], t])`; all four slices of one
+    /// length.
+    fn point_batch(&self, xs: &[f64], ys: &[f64], zs: &[f64], t: f64, out: &mut [f64]) {
+        check_len(out.len(), &[xs.len(), ys.len(), zs.len()]);
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.point([xs[i], ys[i], zs[i], t]);
+        }
+    }
+    /// `out[i] = point_grad([pts[i][0], pts[i][1], pts[i][2], t])`.
+    fn point_grad_batch(&self, pts: &[[f64; 3]], t: f64, out: &mut [(f64, [f64; 3])]) {
+        check_len(out.len(), &[pts.len()]);
+        for (o, p) in out.iter_mut().zip(pts) {
+            *o = self.point_grad([p[0], p[1], p[2], t]);
+        }
+    }
+    /// `out[i] = interval(boxes[i])`.
+    fn interval_batch(&self, boxes: &[[Interval; 4]], out: &mut [DecInterval]) {
+        check_len(out.len(), &[boxes.len()]);
+        for (o, b) in out.iter_mut().zip(boxes) {
+            *o = self.interval(*b);
+        }
+    }
+    /// `out[i] = grad(boxes[i])`.
+    fn grad_batch(&self, boxes: &[[Interval; 4]], out: &mut [GradEval]) {
+        check_len(out.len(), &[boxes.len()]);
+        for (o, b) in out.iter_mut().zip(boxes) {
+            *o = self.grad(*b);
+        }
+    }
+}
+
+/// The whole line, flagged not defined: a sound enclosure of anything (an
+/// evaluator that cannot enclose may answer it; also a filler for output
+/// buffers).
+pub const WHOLE: DecInterval = DecInterval {
+    iv: Interval::ENTIRE,
+    defined: false,
+};
+
+/// [`WHOLE`] for the value and every partial derivative.
+pub const WHOLE_GRAD: GradEval = GradEval {
+    value: Interval::ENTIRE,
+    grad: [Interval::ENTIRE; 3],
+    defined: false,
+};
+
+/// Panics unless every input length is `n` (see the module doc).
+pub fn check_len(n: usize, inputs: &[usize]) {
+    assert!(
+        inputs.iter().all(|&m| m == n),
+        "batch lengths differ: inputs {inputs:?}, output {n}"
+    );
 }
 
 /// The reference interpreters over a program.
 #[derive(Clone, Debug)]
 pub struct Reference(pub Program);
 
-impl Backend for Reference {
+impl Evaluator for Reference {
     fn point(&self, p: [f64; 4]) -> f64 {
         point::eval(&self.0, p)
+    }
+    fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
+        grad::eval_point(&self.0, p)
     }
     fn interval(&self, b: [Interval; 4]) -> DecInterval {
         interval::eval(&self.0, b)
@@ -58,14 +138,29 @@ impl Backend for Reference {
     }
 }
 
-impl<B: Backend + ?Sized> Backend for &B {
+impl<E: Evaluator + ?Sized> Evaluator for &E {
     fn point(&self, p: [f64; 4]) -> f64 {
         (**self).point(p)
+    }
+    fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
+        (**self).point_grad(p)
     }
     fn interval(&self, b: [Interval; 4]) -> DecInterval {
         (**self).interval(b)
     }
     fn grad(&self, b: [Interval; 4]) -> GradEval {
         (**self).grad(b)
+    }
+    fn point_batch(&self, xs: &[f64], ys: &[f64], zs: &[f64], t: f64, out: &mut [f64]) {
+        (**self).point_batch(xs, ys, zs, t, out)
+    }
+    fn point_grad_batch(&self, pts: &[[f64; 3]], t: f64, out: &mut [(f64, [f64; 3])]) {
+        (**self).point_grad_batch(pts, t, out)
+    }
+    fn interval_batch(&self, boxes: &[[Interval; 4]], out: &mut [DecInterval]) {
+        (**self).interval_batch(boxes, out)
+    }
+    fn grad_batch(&self, boxes: &[[Interval; 4]], out: &mut [GradEval]) {
+        (**self).grad_batch(boxes, out)
     }
 }

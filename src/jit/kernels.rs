@@ -552,15 +552,3 @@ fn check_box_batch(
     }
     Ok(n)
 }
-
-impl crate::eval::Backend for Kernels {
-    fn point(&self, p: [f64; 4]) -> f64 {
-        Kernels::point(self, p)
-    }
-    fn interval(&self, b: [Interval; 4]) -> DecInterval {
-        Kernels::interval(self, b)
-    }
-    fn grad(&self, b: [Interval; 4]) -> GradEval {
-        Kernels::grad(self, b)
-    }
-}

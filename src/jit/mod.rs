@@ -22,10 +22,10 @@
 //! - **interval**: an enclosure of the function over the box, outward
 //!   rounded by hardware rounding toward +∞ (see [`rounding`] and
 //!   [`mxcsr`]), plus the flag "defined and continuous on the whole box"
-//!   (as [`DecInterval::defined`]);
+//!   (as [`crate::interval::DecInterval::defined`]);
 //! - **interval-gradient**: enclosures of `(F, ∂F/∂x, ∂F/∂y, ∂F/∂z)` by
 //!   forward-mode AD over intervals, plus the flag "defined, continuous and
-//!   differentiable on the whole box" (as [`GradEval::defined`]);
+//!   differentiable on the whole box" (as [`crate::eval::GradEval::defined`]);
 //! - **point-gradient**: `(f, ∂f/∂x, ∂f/∂y, ∂f/∂z)` by forward-mode AD in
 //!   f64, bit for bit [`crate::eval::grad::eval_point`] (see [`pgrad`]).
 //!
@@ -95,6 +95,7 @@
 //! [`grad`] and [`pgrad`] for which ops are inline.
 
 mod entry;
+mod evaluator;
 mod grad;
 pub mod helpers;
 mod interval;
@@ -117,8 +118,6 @@ pub use kernels::{Engine, Kernels};
 
 use crate::ir::{BinOp, UnOp};
 use helpers::Helper;
-#[allow(unused_imports)]
-use crate::{eval::grad::GradEval, interval::DecInterval};
 
 /// Single-point kernel.
 pub type PointFn = unsafe extern "C" fn(f64, f64, f64, f64) -> f64;

@@ -2,14 +2,16 @@
 //! dual grid → dual marching cubes (MC33) with vertices bisected onto the
 //! surface → tangential smoothing → report. The report's topology is
 //! computed from the mesh itself ([`super::topology`]), never assumed.
+//!
+//! Every stage evaluates the function through one [`Evaluator`] at the
+//! octree's time: [`mesh_with`] takes any evaluator and a domain, [`mesh`]
+//! is [`mesh_with`] on a compiled [`Surface`] and its own domain.
 
 use std::time::Instant;
 
-use glam::DVec3;
-
 use super::Mesh;
-use super::roots::Field;
 use super::{quality, smooth, topology};
+use crate::eval::Evaluator;
 use crate::octree::{Octree, OctreeOptions, OctreeStats};
 use crate::polygonize::extract;
 use crate::surface::{Bounds, Surface};
@@ -72,59 +74,54 @@ pub enum Stage {
     Smooth,
 }
 
-/// A surface at a fixed time, seen as a field for root finding.
-pub struct SurfaceField<'a> {
-    pub surface: &'a Surface,
-    pub t: f64,
-}
-
-impl Field for SurfaceField<'_> {
-    fn value(&self, p: DVec3) -> f64 {
-        self.surface.point([p.x, p.y, p.z, self.t])
-    }
-    fn gradient(&self, p: DVec3) -> (f64, DVec3) {
-        let (v, g) = self.surface.point_grad([p.x, p.y, p.z, self.t]);
-        (v, DVec3::from_array(g))
-    }
-}
-
 fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
-/// Meshes `surface`. `progress` is told when each stage starts (and after
-/// each octree level).
+/// Meshes `surface` (through its JIT kernels) over `opts.domain` or, when
+/// that is `None`, the surface's own domain: [`mesh_with`] on the surface.
 pub fn mesh(
     surface: &Surface,
     opts: &MeshOptions,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> (Mesh, MeshReport) {
+    mesh_with(surface, surface.domain, opts, progress)
+}
+
+/// Meshes `f(·, opts.octree.t) = 0` for any evaluator `f` over
+/// `opts.domain` or, when that is `None`, over `domain`. `progress` is told
+/// when each stage starts (and after each octree level). The mesh depends
+/// only on the values `f` returns: two evaluators that agree bit for bit
+/// give the same mesh.
+pub fn mesh_with<E: Evaluator + ?Sized>(
+    f: &E,
+    domain: Bounds,
+    opts: &MeshOptions,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> (Mesh, MeshReport) {
     let start = Instant::now();
-    let domain = opts.domain.unwrap_or(surface.domain);
-    let field = SurfaceField {
-        surface,
-        t: opts.octree.t,
-    };
+    let domain = opts.domain.unwrap_or(domain);
+    let t = opts.octree.t;
     let t0 = Instant::now();
-    let tree = Octree::build(surface, domain, &opts.octree, &|level, cells| {
+    let tree = Octree::build(f, domain, &opts.octree, &|level, cells| {
         progress(Stage::Octree { level, cells })
     });
     let octree_ms = ms(t0);
 
     progress(Stage::Dual);
     let t0 = Instant::now();
-    let mut values = extract::CornerValues::at_leaves(&tree, &field);
-    let (active, dual_cells) = extract::active_cells(&tree, &field, &mut values);
+    let mut values = extract::CornerValues::at_leaves(&tree, f, t);
+    let (active, dual_cells) = extract::active_cells(&tree, f, t, &mut values);
     let dual_ms = ms(t0);
 
     progress(Stage::Polygonize);
     let t0 = Instant::now();
-    let (mut mesh, ex) = extract::extract(&tree, &field, &values, &active);
+    let (mut mesh, ex) = extract::extract(&tree, f, t, &values, &active);
     let polygonize_ms = ms(t0);
 
     progress(Stage::Smooth);
     let t0 = Instant::now();
-    let moves = smooth::smooth(&mut mesh, &field, opts.smooth);
+    let moves = smooth::smooth(&mut mesh, f, t, opts.smooth);
     let smooth_ms = ms(t0);
 
     let topo = topology::analyze(&mesh);

@@ -11,6 +11,7 @@
 pub mod mesher;
 pub mod quality;
 pub mod roots;
+pub mod sample;
 pub mod smooth;
 pub mod topology;
 

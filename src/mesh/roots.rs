@@ -1,4 +1,5 @@
-//! Putting points on the surface `f = 0`, using only point evaluations.
+//! Putting points on the surface `f(·, t) = 0`, using only point
+//! evaluations of an [`Evaluator`] at a fixed time `t`.
 //!
 //! - [`bisect`]: the zero on a segment whose ends have opposite signs, by
 //!   bisection to machine precision: the returned point is one of two
@@ -8,87 +9,267 @@
 //!   secant point when it is safely inside the bracket (Illinois-style
 //!   safeguard), otherwise the midpoint, so convergence is fast on smooth
 //!   functions and never worse than bisection.
+//! - [`bisect_batch`]: [`bisect`] on many segments in lock-step, one
+//!   [`Evaluator::point_batch`] call per step over the segments still
+//!   running. Per segment it evaluates the same points in the same order
+//!   and stops at the same step as [`bisect`], so its results are bit for
+//!   bit [`bisect`]'s (the evaluator's batch equals its single calls).
 //! - [`project`]: a point near the surface moved onto it along the gradient
 //!   line (Newton's method, then a sign-change bracket refined by
 //!   [`bisect`]), refusing to move farther than a given distance, so that a
-//!   point never jumps to another sheet of the surface.
+//!   point never jumps to another sheet of the surface. Each evaluation
+//!   depends on the last, so it evaluates one point at a time.
 
 use glam::DVec3;
 
-/// A point evaluation: `f(p)`.
-pub trait Field: Sync {
-    fn value(&self, p: DVec3) -> f64;
-    fn gradient(&self, p: DVec3) -> (f64, DVec3);
+use crate::eval::Evaluator;
+
+/// The evaluator's input at `p` and time `t`.
+pub fn at(p: DVec3, t: f64) -> [f64; 4] {
+    [p.x, p.y, p.z, t]
 }
 
-/// The zero of `f` on `[a, b]`, given `fa = f(a) < 0 <= fb = f(b)` or the
-/// reverse. See the module doc.
-pub fn bisect(f: &dyn Field, mut a: DVec3, mut b: DVec3, mut fa: f64, mut fb: f64) -> DVec3 {
-    debug_assert!((fa < 0.0) != (fb < 0.0));
-    let mut side = 0i8;
-    for _ in 0..200 {
+/// Most steps of one bisection.
+const MAX_STEPS: u32 = 200;
+
+/// A sign-change bracket `[a, b]` and the state of the Illinois safeguard.
+#[derive(Clone, Copy, Debug)]
+struct Bracket {
+    a: DVec3,
+    b: DVec3,
+    fa: f64,
+    fb: f64,
+    side: i8,
+}
+
+impl Bracket {
+    fn new(a: DVec3, b: DVec3, fa: f64, fb: f64) -> Bracket {
+        debug_assert!((fa < 0.0) != (fb < 0.0));
+        Bracket {
+            a,
+            b,
+            fa,
+            fb,
+            side: 0,
+        }
+    }
+
+    /// The next point to evaluate and the midpoint, or `None` when the
+    /// bracket can no longer be split.
+    fn probe(&self) -> Option<(DVec3, DVec3)> {
+        let (a, b) = (self.a, self.b);
         let mid = (a + b) * 0.5;
         if mid == a || mid == b {
-            break;
+            return None;
         }
         // Secant point, kept away from the ends; midpoint otherwise.
-        let s = fa / (fa - fb);
+        let s = self.fa / (self.fa - self.fb);
         let p = if s.is_finite() && (0.05..=0.95).contains(&s) {
             a + (b - a) * s
         } else {
             mid
         };
         let p = if p == a || p == b { mid } else { p };
-        let fp = f.value(p);
-        if fp.is_nan() {
-            // Undefined inside the bracket: fall back to the midpoint rule.
-            let fm = f.value(mid);
-            if fm.is_nan() || (fm < 0.0) == (fa < 0.0) {
-                a = mid;
-                fa = if fm.is_nan() { fa } else { fm };
-            } else {
-                b = mid;
-                fb = fm;
+        Some((p, mid))
+    }
+
+    /// Takes `fp = f(p)` (not NaN); returns whether the bracket has
+    /// converged.
+    fn take(&mut self, p: DVec3, fp: f64) -> bool {
+        if (fp < 0.0) == (self.fa < 0.0) {
+            self.a = p;
+            self.fa = fp;
+            if self.side == -1 {
+                self.fb *= 0.5;
             }
-            continue;
-        }
-        if (fp < 0.0) == (fa < 0.0) {
-            a = p;
-            fa = fp;
-            if side == -1 {
-                fb *= 0.5;
-            }
-            side = -1;
+            self.side = -1;
         } else {
-            b = p;
-            fb = fp;
-            if side == 1 {
-                fa *= 0.5;
+            self.b = p;
+            self.fb = fp;
+            if self.side == 1 {
+                self.fa *= 0.5;
             }
-            side = 1;
+            self.side = 1;
         }
-        if (b - a).abs().max_element() <= f64::EPSILON * a.abs().max(b.abs()).max_element() {
-            break;
+        let (a, b) = (self.a, self.b);
+        (b - a).abs().max_element() <= f64::EPSILON * a.abs().max(b.abs()).max_element()
+    }
+
+    /// Takes `fm = f(mid)` after `f` was NaN at the probe: undefined inside
+    /// the bracket, fall back to the midpoint rule.
+    fn take_mid(&mut self, mid: DVec3, fm: f64) {
+        if fm.is_nan() || (fm < 0.0) == (self.fa < 0.0) {
+            self.a = mid;
+            self.fa = if fm.is_nan() { self.fa } else { fm };
+        } else {
+            self.b = mid;
+            self.fb = fm;
         }
     }
-    // The end whose value is nearer zero — but not an end where f is
-    // exactly 0 when the other is not: such an end is usually a sample
-    // point (a leaf centre) shared by several brackets, and returning it
-    // would put several vertices at one position. The other end is within
-    // the bracket's final width (an ulp or so) of it.
-    let (va, vb) = (f.value(a), f.value(b));
-    match (va == 0.0, vb == 0.0) {
-        (true, false) => b,
-        (false, true) => a,
-        _ if va.abs() <= vb.abs() => a,
-        _ => b,
+
+    /// The result, from `va = f(a)` and `vb = f(b)`: the end whose value is
+    /// nearer zero — but not an end where f is exactly 0 when the other is
+    /// not: such an end is usually a sample point (a leaf centre) shared by
+    /// several brackets, and returning it would put several vertices at one
+    /// position. The other end is within the bracket's final width (an ulp
+    /// or so) of it.
+    fn pick(&self, va: f64, vb: f64) -> DVec3 {
+        match (va == 0.0, vb == 0.0) {
+            (true, false) => self.b,
+            (false, true) => self.a,
+            _ if va.abs() <= vb.abs() => self.a,
+            _ => self.b,
+        }
     }
 }
 
-/// `p` moved onto `f = 0` along its gradient line, or `None` when no zero
-/// lies within `max_dist` of `p` along that line.
-pub fn project(f: &dyn Field, p: DVec3, max_dist: f64) -> Option<DVec3> {
-    let (fp, g) = f.gradient(p);
+/// The zero of `f(·, t)` on `[a, b]`, given `fa = f(a) < 0 <= fb = f(b)` or
+/// the reverse. See the module doc.
+pub fn bisect<E: Evaluator + ?Sized>(f: &E, t: f64, a: DVec3, b: DVec3, fa: f64, fb: f64) -> DVec3 {
+    let mut br = Bracket::new(a, b, fa, fb);
+    for _ in 0..MAX_STEPS {
+        let Some((p, mid)) = br.probe() else {
+            break;
+        };
+        let fp = f.point(at(p, t));
+        if fp.is_nan() {
+            let fm = f.point(at(mid, t));
+            br.take_mid(mid, fm);
+            continue;
+        }
+        if br.take(p, fp) {
+            break;
+        }
+    }
+    br.pick(f.point(at(br.a, t)), f.point(at(br.b, t)))
+}
+
+/// A segment for [`bisect_batch`]: ends `a`, `b` with values `fa`, `fb` of
+/// opposite signs (as [`bisect`] takes them).
+#[derive(Clone, Copy, Debug)]
+pub struct Segment {
+    pub a: DVec3,
+    pub b: DVec3,
+    pub fa: f64,
+    pub fb: f64,
+}
+
+/// Where one segment of [`bisect_batch`] is in [`bisect`]'s loop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Phase {
+    /// About to take a step (or to finish, when none is left).
+    Probe,
+    /// Waiting for `f` at the probe.
+    AwaitProbe,
+    /// `f` was NaN at the probe: `f` at the midpoint is asked next.
+    NeedMid,
+    AwaitMid,
+    /// Waiting for `f` at both ends.
+    AwaitEnds,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Job {
+    br: Bracket,
+    steps: u32,
+    phase: Phase,
+    probe: DVec3,
+    mid: DVec3,
+}
+
+/// [`bisect`] on every segment, in lock-step (see the module doc).
+pub fn bisect_batch<E: Evaluator + ?Sized>(f: &E, t: f64, segments: &[Segment]) -> Vec<DVec3> {
+    let mut out = vec![DVec3::ZERO; segments.len()];
+    let mut jobs: Vec<Job> = segments
+        .iter()
+        .map(|s| Job {
+            br: Bracket::new(s.a, s.b, s.fa, s.fb),
+            steps: 0,
+            phase: Phase::Probe,
+            probe: DVec3::ZERO,
+            mid: DVec3::ZERO,
+        })
+        .collect();
+    let mut running: Vec<usize> = (0..segments.len()).collect();
+    let (mut xs, mut ys, mut zs, mut vals) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    while !running.is_empty() {
+        xs.clear();
+        ys.clear();
+        zs.clear();
+        let mut ask = |p: DVec3| {
+            xs.push(p.x);
+            ys.push(p.y);
+            zs.push(p.z);
+        };
+        for &i in &running {
+            let job = &mut jobs[i];
+            match job.phase {
+                Phase::Probe => match job.br.probe().filter(|_| job.steps < MAX_STEPS) {
+                    Some((p, mid)) => {
+                        (job.probe, job.mid) = (p, mid);
+                        job.phase = Phase::AwaitProbe;
+                        ask(p);
+                    }
+                    None => {
+                        job.phase = Phase::AwaitEnds;
+                        ask(job.br.a);
+                        ask(job.br.b);
+                    }
+                },
+                Phase::NeedMid => {
+                    job.phase = Phase::AwaitMid;
+                    ask(job.mid);
+                }
+                _ => unreachable!("every running job asks for a value each round"),
+            }
+        }
+        vals.clear();
+        vals.resize(xs.len(), 0.0);
+        f.point_batch(&xs, &ys, &zs, t, &mut vals);
+        let mut next = vals.iter().copied();
+        let mut value = || next.next().expect("one value per point asked");
+        running.retain(|&i| {
+            let job = &mut jobs[i];
+            match job.phase {
+                Phase::AwaitProbe => {
+                    let fp = value();
+                    if fp.is_nan() {
+                        job.phase = Phase::NeedMid;
+                    } else {
+                        let converged = job.br.take(job.probe, fp);
+                        job.steps += 1;
+                        job.phase = Phase::Probe;
+                        if converged {
+                            // As `break`: no further step.
+                            job.steps = MAX_STEPS;
+                        }
+                    }
+                    true
+                }
+                Phase::AwaitMid => {
+                    let fm = value();
+                    job.br.take_mid(job.mid, fm);
+                    job.steps += 1;
+                    job.phase = Phase::Probe;
+                    true
+                }
+                Phase::AwaitEnds => {
+                    let (va, vb) = (value(), value());
+                    out[i] = job.br.pick(va, vb);
+                    false
+                }
+                _ => unreachable!("every running job asked for a value"),
+            }
+        });
+    }
+    out
+}
+
+/// `p` moved onto `f(·, t) = 0` along its gradient line, or `None` when no
+/// zero lies within `max_dist` of `p` along that line.
+pub fn project<E: Evaluator + ?Sized>(f: &E, t: f64, p: DVec3, max_dist: f64) -> Option<DVec3> {
+    let (fp, g) = f.point_grad(at(p, t));
+    let g = DVec3::from_array(g);
     if !fp.is_finite() || !g.is_finite() || g.length_squared() == 0.0 {
         return None;
     }
@@ -105,9 +286,9 @@ pub fn project(f: &dyn Field, p: DVec3, max_dist: f64) -> Option<DVec3> {
         let lo = (guess - step).max(-max_dist);
         let hi = (guess + step).min(max_dist);
         let (a, b) = (p + dir * lo, p + dir * hi);
-        let (fa, fb) = (f.value(a), f.value(b));
+        let (fa, fb) = (f.point(at(a, t)), f.point(at(b, t)));
         if fa.is_finite() && fb.is_finite() && sign(fa) != sign(fb) {
-            return Some(bisect(f, a, b, fa, fb));
+            return Some(bisect(f, t, a, b, fa, fb));
         }
         if lo <= -max_dist && hi >= max_dist {
             return None;

@@ -13,12 +13,18 @@
 //! the pass (the costly part: projection); they are then accepted one by
 //! one against the *current* positions, so two neighbours moving at once
 //! cannot together flip a triangle that each alone would not.
+//!
+//! Evaluation: the projections are sequential per vertex (each evaluation
+//! depends on the last; the vertices run in parallel); the normals after a
+//! pass are one batch of point gradients ([`super::sample::grads_at`]).
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::roots::{Field, project};
+use super::roots::project;
+use super::sample::grads_at;
 use super::{Mesh, Star};
+use crate::eval::Evaluator;
 
 /// Whether moving vertex `v` to `p` keeps every incident triangle's
 /// orientation and a reasonable share of its area.
@@ -38,8 +44,9 @@ fn move_is_safe(mesh: &Mesh, star: &Star, v: usize, p: DVec3) -> bool {
     })
 }
 
-/// Runs `passes` smoothing passes; returns how many moves were accepted.
-pub fn smooth(mesh: &mut Mesh, field: &dyn Field, passes: usize) -> usize {
+/// Runs `passes` smoothing passes on the surface `f(·, t) = 0`; returns how
+/// many moves were accepted.
+pub fn smooth<E: Evaluator + ?Sized>(mesh: &mut Mesh, f: &E, t: f64, passes: usize) -> usize {
     if passes == 0 || mesh.triangles.is_empty() {
         return 0;
     }
@@ -68,7 +75,7 @@ pub fn smooth(mesh: &mut Mesh, field: &dyn Field, passes: usize) -> usize {
                 let n = mesh.normals[v];
                 let d = sum / count - p;
                 let tangential = d - n * d.dot(n);
-                project(field, p + tangential, 0.5 * reach)
+                project(f, t, p + tangential, 0.5 * reach)
             })
             .collect();
         for (v, c) in candidates.into_iter().enumerate() {
@@ -80,12 +87,10 @@ pub fn smooth(mesh: &mut Mesh, field: &dyn Field, passes: usize) -> usize {
             }
         }
         // Normals follow the surface at the new positions.
-        let normals: Vec<DVec3> = mesh
-            .positions
-            .par_iter()
+        let normals: Vec<DVec3> = grads_at(f, t, &mesh.positions)
+            .into_par_iter()
             .zip(mesh.normals.par_iter())
-            .map(|(&p, &old)| {
-                let g = field.gradient(p).1;
+            .map(|((_, g), &old)| {
                 if g.is_finite() && g.length_squared() > 0.0 {
                     g.normalize()
                 } else {

@@ -24,14 +24,25 @@
 //! consecutive, child `c` (bits `x = c&1, y = (c>>1)&1, z = (c>>2)&1`) at
 //! `first_child + c`. The tree is built breadth-first, one level at a time;
 //! each level's cells are evaluated in parallel (`rayon`).
+//!
+//! # Evaluation
+//!
+//! Any [`Evaluator`] will do. Cells are examined in chunks of `BATCH`:
+//! one [`Evaluator::grad_batch`] over the cells, one
+//! [`Evaluator::interval_batch`] at their centres (the mean-value form),
+//! and one [`Evaluator::interval_batch`] over the cells whose gradient flag
+//! dropped. The proof search below ambiguous leaves
+//! ([`Octree::clear_false_ambiguity`]) is recursive, one cell per call;
+//! the ambiguous leaves run in parallel.
 
 pub mod criteria;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::eval::{Evaluator, WHOLE, WHOLE_GRAD};
 use crate::interval::Interval;
-use crate::surface::{Bounds, Surface};
+use crate::surface::Bounds;
 pub use criteria::TopologyTest;
 
 /// How a leaf ended.
@@ -125,14 +136,15 @@ fn cell_input(a: DVec3, b: DVec3, t: f64) -> [Interval; 4] {
 
 /// Interval-gradient evaluations over cells (one batch call), judged by
 /// the criteria; the value kernel is asked too where the gradient kernel's
-/// flag dropped (for a merely non-differentiable F), and at the centres for
-/// the mean-value form (a second batch call).
-fn examine(
-    surface: &Surface,
+/// flag dropped (for a merely non-differentiable F: a third batch call),
+/// and at the centres for the mean-value form (a second batch call).
+fn examine<E: Evaluator + ?Sized>(
+    f: &E,
     cells: &[[Interval; 4]],
     opts: &OctreeOptions,
 ) -> Vec<criteria::Verdict> {
-    let grads = surface.grad_batch(cells);
+    let mut grads = vec![WHOLE_GRAD; cells.len()];
+    f.grad_batch(cells, &mut grads);
     let centres: Vec<[Interval; 4]> = cells
         .iter()
         .map(|cell| {
@@ -144,13 +156,27 @@ fn examine(
             c
         })
         .collect();
-    let at_centres = surface.interval_batch(&centres);
+    let mut at_centres = vec![WHOLE; cells.len()];
+    f.interval_batch(&centres, &mut at_centres);
+    let undiff: Vec<[Interval; 4]> = cells
+        .iter()
+        .zip(&grads)
+        .filter(|(_, g)| !g.defined)
+        .map(|(c, _)| *c)
+        .collect();
+    let mut on_undiff = vec![WHOLE; undiff.len()];
+    f.interval_batch(&undiff, &mut on_undiff);
+    let mut on_undiff = on_undiff.into_iter();
     cells
         .iter()
         .zip(grads)
         .zip(centres.iter().zip(at_centres))
         .map(|((cell, g), (centre, fc))| {
-            let value_defined = g.defined || surface.interval(*cell).defined;
+            let value_defined = g.defined
+                || on_undiff
+                    .next()
+                    .expect("one value per cell whose gradient flag dropped")
+                    .defined;
             let mean_value = (g.defined && value_defined).then(|| {
                 let c = [0, 1, 2].map(|k| centre[k].lo);
                 criteria::mean_value_form(fc.iv, g.grad, [cell[0], cell[1], cell[2]], c)
@@ -165,8 +191,14 @@ const BATCH: usize = 128;
 
 /// Whether the box `[a, b]` is proved free of surface, splitting it up to
 /// `depth` more times.
-fn proves_empty(surface: &Surface, a: DVec3, b: DVec3, opts: &OctreeOptions, depth: u8) -> bool {
-    if examine(surface, &[cell_input(a, b, opts.t)], opts)[0].empty {
+fn proves_empty<E: Evaluator + ?Sized>(
+    f: &E,
+    a: DVec3,
+    b: DVec3,
+    opts: &OctreeOptions,
+    depth: u8,
+) -> bool {
+    if examine(f, &[cell_input(a, b, opts.t)], opts)[0].empty {
         return true;
     }
     if depth == 0 {
@@ -185,7 +217,7 @@ fn proves_empty(surface: &Surface, a: DVec3, b: DVec3, opts: &OctreeOptions, dep
         let (y0, y1) = pick(1, a.y, m.y, b.y);
         let (z0, z1) = pick(2, a.z, m.z, b.z);
         proves_empty(
-            surface,
+            f,
             DVec3::new(x0, y0, z0),
             DVec3::new(x1, y1, z1),
             opts,
@@ -211,10 +243,10 @@ impl Octree {
         (a + b) * 0.5
     }
 
-    /// Builds the octree of `surface` over `domain`. `progress` is called
-    /// after each level with (level, cells evaluated so far).
-    pub fn build(
-        surface: &Surface,
+    /// Builds the octree of `f(·, opts.t)` over `domain`. `progress` is
+    /// called after each level with (level, cells evaluated so far).
+    pub fn build<E: Evaluator + ?Sized>(
+        f: &E,
         domain: Bounds,
         opts: &OctreeOptions,
         progress: &(dyn Fn(u8, usize) + Sync),
@@ -248,7 +280,7 @@ impl Octree {
                             cell_input(a, b, opts.t)
                         })
                         .collect();
-                    examine(surface, &cells, opts)
+                    examine(f, &cells, opts)
                 })
                 .collect();
             evaluated += frontier.len();
@@ -295,7 +327,7 @@ impl Octree {
             progress(level, evaluated);
             frontier = next;
         }
-        tree.clear_false_ambiguity(surface, opts);
+        tree.clear_false_ambiguity(f, opts);
         tree.count();
         tree
     }
@@ -305,7 +337,7 @@ impl Octree {
     /// Each one is split further (up to [`PROOF_DEPTH`] levels, for the
     /// proof only: the octree keeps its leaf) and becomes [`Leaf::Empty`]
     /// when every piece is proved empty. Nothing else is relaxed.
-    fn clear_false_ambiguity(&mut self, surface: &Surface, opts: &OctreeOptions) {
+    fn clear_false_ambiguity<E: Evaluator + ?Sized>(&mut self, f: &E, opts: &OctreeOptions) {
         let ambiguous: Vec<usize> = (0..self.nodes.len())
             .filter(|&i| self.nodes[i].leaf == Some(Leaf::Ambiguous))
             .collect();
@@ -313,7 +345,7 @@ impl Octree {
             .par_iter()
             .map(|&i| {
                 let (a, b) = self.cell_box(&self.nodes[i]);
-                proves_empty(surface, a, b, opts, PROOF_DEPTH)
+                proves_empty(f, a, b, opts, PROOF_DEPTH)
             })
             .collect();
         for (&i, empty) in ambiguous.iter().zip(proved) {

@@ -4,23 +4,36 @@
 //!
 //! # Contract
 //!
-//! - Corner values are the function's values at the leaf centres (point
-//!   kernel), and at the ghost corners along ∂Ω (see [`crate::dual`]) the
-//!   values at the centres' projections onto ∂Ω. A dual cell with repeated corners (leaves of different sizes)
-//!   is polygonised with the repeated values duplicated, as the paper says.
+//! - Corner values are the function's values at the leaf centres, and at
+//!   the ghost corners along ∂Ω (see [`crate::dual`]) the values at the
+//!   centres' projections onto ∂Ω. A dual cell with repeated corners
+//!   (leaves of different sizes) is polygonised with the repeated values
+//!   duplicated, as the paper says.
 //! - An edge vertex lies on the dual edge between two leaf centres and is
 //!   **keyed by the pair of leaves**, never by position, so the cells that
 //!   share a dual edge share its vertex: the mesh has no cracks and no
 //!   duplicated vertices. Edges whose two corners are the same leaf cannot
 //!   carry a vertex (equal values).
 //! - Vertices are placed by bisection on the exact function
-//!   ([`crate::mesh::roots::bisect`]), not by linear interpolation; the
+//!   ([`crate::mesh::roots::bisect_batch`], bit for bit
+//!   [`crate::mesh::roots::bisect`]), not by linear interpolation; the
 //!   interior vertices that MC33 adds for tunnels are mapped through the
 //!   dual cell's trilinear map and projected onto `f = 0`.
 //! - Triangles whose vertices repeat (degenerate dual cells map two cell
 //!   edges to one leaf pair) are dropped.
 //! - A vertex is *ambiguous* when a leaf of its dual edge (or, for interior
 //!   vertices, of its dual cell) is an ambiguous leaf of the octree.
+//!
+//! # Evaluation
+//!
+//! Everything is evaluated by an [`Evaluator`] at the octree's time `t`,
+//! in batches: the leaf-centre values ([`Evaluator::point_batch`], chunks
+//! in parallel), the ghost-corner values (one batch after the dual-grid
+//! walk has met them all), the edge vertices (lock-step bisection, one
+//! batch per step per chunk of edges) and the vertex normals
+//! ([`Evaluator::point_grad_batch`]). The projection of MC33's interior
+//! vertices ([`crate::mesh::roots::project`]) is sequential per vertex
+//! (each evaluation depends on the last); those vertices run in parallel.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -29,8 +42,10 @@ use super::mc33::{self, EDGE_CORNERS, Vertex};
 use std::collections::HashMap;
 
 use crate::dual::{self, Corner, DualCell};
+use crate::eval::Evaluator;
 use crate::mesh::Mesh;
-use crate::mesh::roots::{Field, bisect, project};
+use crate::mesh::roots::{Segment, bisect_batch, project};
+use crate::mesh::sample::{normals_at, values_at};
 use crate::octree::{Leaf, Octree};
 
 /// A mesh vertex before numbering: an edge between two leaves (smaller
@@ -60,22 +75,25 @@ pub struct CornerValues {
     ghosts: HashMap<Corner, f64>,
 }
 
+/// Edges per lock-step bisection.
+const BATCH: usize = 256;
+
 impl CornerValues {
-    /// Values at every leaf centre, evaluated in parallel.
-    pub fn at_leaves(tree: &Octree, field: &dyn Field) -> CornerValues {
-        let leaves = tree
-            .nodes
-            .par_iter()
-            .map(|n| {
-                if n.is_leaf() {
-                    field.value(tree.center(n))
-                } else {
-                    f64::NAN
-                }
-            })
+    /// Values of `f(·, t)` at every leaf centre (batch calls, in parallel).
+    pub fn at_leaves<E: Evaluator + ?Sized>(tree: &Octree, f: &E, t: f64) -> CornerValues {
+        let leaves: Vec<usize> = (0..tree.nodes.len())
+            .filter(|&i| tree.nodes[i].is_leaf())
             .collect();
+        let centres: Vec<DVec3> = leaves
+            .iter()
+            .map(|&i| tree.center(&tree.nodes[i]))
+            .collect();
+        let mut values = vec![f64::NAN; tree.nodes.len()];
+        for (&i, v) in leaves.iter().zip(values_at(f, t, &centres)) {
+            values[i] = v;
+        }
         CornerValues {
-            leaves,
+            leaves: values,
             ghosts: HashMap::new(),
         }
     }
@@ -90,39 +108,59 @@ impl CornerValues {
     }
 }
 
-/// The dual cells whose corner values change sign, and the number of dual
-/// cells visited. Evaluates the ghost corners' values on the way.
-pub fn active_cells(
+/// The dual cells whose corner values change sign, in the dual grid's
+/// order, and the number of dual cells visited. Evaluates the ghost
+/// corners' values of `f(·, t)` (one batch, after the walk).
+pub fn active_cells<E: Evaluator + ?Sized>(
     tree: &Octree,
-    field: &dyn Field,
+    f: &E,
+    t: f64,
     values: &mut CornerValues,
 ) -> (Vec<DualCell>, usize) {
     let negative = |v: f64| v < 0.0;
+    let changes_sign = |values: &CornerValues, cell: &DualCell| {
+        let first = negative(values.get(cell[0]));
+        cell.iter().any(|&c| negative(values.get(c)) != first)
+    };
     let mut count = 0;
-    let mut active: Vec<DualCell> = Vec::new();
+    // Cells with a ghost corner are kept as candidates (in order) and
+    // decided once every ghost met has its value.
+    let mut cells: Vec<(DualCell, bool)> = Vec::new();
+    let mut new_ghosts: Vec<Corner> = Vec::new();
     dual::for_each_cell(tree, |cell| {
         count += 1;
+        let mut pending = false;
         for &c in &cell {
-            if c.is_ghost() {
-                values
-                    .ghosts
-                    .entry(c)
-                    .or_insert_with(|| field.value(c.position(tree)));
+            if c.is_ghost() && !values.ghosts.contains_key(&c) {
+                values.ghosts.insert(c, f64::NAN);
+                new_ghosts.push(c);
             }
+            pending |= c.is_ghost();
         }
-        let first = negative(values.get(cell[0]));
-        if cell.iter().any(|&c| negative(values.get(c)) != first) {
-            active.push(cell);
+        if pending {
+            cells.push((cell, true));
+        } else if changes_sign(values, &cell) {
+            cells.push((cell, false));
         }
     });
+    let at: Vec<DVec3> = new_ghosts.iter().map(|c| c.position(tree)).collect();
+    for (c, v) in new_ghosts.iter().zip(values_at(f, t, &at)) {
+        values.ghosts.insert(*c, v);
+    }
+    let active = cells
+        .into_iter()
+        .filter(|(cell, pending)| !pending || changes_sign(values, cell))
+        .map(|(cell, _)| cell)
+        .collect();
     (active, count)
 }
 
-/// Polygonises the active dual cells of `field`'s octree. See the module
-/// doc.
-pub fn extract(
+/// Polygonises the active dual cells of the octree of `f(·, t)`. See the
+/// module doc.
+pub fn extract<E: Evaluator + ?Sized>(
     tree: &Octree,
-    field: &dyn Field,
+    f: &E,
+    t: f64,
     values: &CornerValues,
     active: &[DualCell],
 ) -> (Mesh, ExtractStats) {
@@ -188,23 +226,44 @@ pub fn extract(
         .collect();
 
     let ambiguous_leaf = |c: Corner| nodes[c.node as usize].leaf == Some(Leaf::Ambiguous);
-    let placed: Vec<(DVec3, bool)> = keys
-        .par_iter()
-        .map(|k| match *k {
-            Key::Edge(a, b) => {
-                let (pa, pb) = (a.position(tree), b.position(tree));
-                let p = bisect(field, pa, pb, values.get(a), values.get(b));
+    // Edge keys sort before interior keys.
+    let edges = keys.partition_point(|k| matches!(k, Key::Edge(..)));
+    let mut placed: Vec<(DVec3, bool)> = keys[..edges]
+        .par_chunks(BATCH)
+        .flat_map_iter(|chunk| {
+            let ends = |k: &Key| match *k {
+                Key::Edge(a, b) => (a, b),
+                Key::Interior(..) => unreachable!("edge keys only"),
+            };
+            let segments: Vec<Segment> = chunk
+                .iter()
+                .map(|k| {
+                    let (a, b) = ends(k);
+                    Segment {
+                        a: a.position(tree),
+                        b: b.position(tree),
+                        fa: values.get(a),
+                        fb: values.get(b),
+                    }
+                })
+                .collect();
+            let ps = bisect_batch(f, t, &segments);
+            chunk.iter().zip(ps).map(move |(k, p)| {
+                let (a, b) = ends(k);
                 (p, ambiguous_leaf(a) || ambiguous_leaf(b))
-            }
-            Key::Interior(ci, _) => {
-                let p0 = interior_at[k];
-                let cell = active[ci as usize];
-                let reach = cell_reach(tree, &cell);
-                let p = project(field, p0, reach).unwrap_or(p0);
-                (p, cell.iter().any(|&l| ambiguous_leaf(l)))
-            }
+            })
         })
         .collect();
+    placed.par_extend(keys[edges..].par_iter().map(|k| {
+        let Key::Interior(ci, _) = *k else {
+            unreachable!("interior keys only")
+        };
+        let p0 = interior_at[k];
+        let cell = active[ci as usize];
+        let reach = cell_reach(tree, &cell);
+        let p = project(f, t, p0, reach).unwrap_or(p0);
+        (p, cell.iter().any(|&l| ambiguous_leaf(l)))
+    }));
 
     let mut mesh = Mesh {
         positions: placed.iter().map(|p| p.0).collect(),
@@ -212,11 +271,7 @@ pub fn extract(
         normals: Vec::new(),
         triangles: Vec::new(),
     };
-    mesh.normals = mesh
-        .positions
-        .par_iter()
-        .map(|&p| field.gradient(p).1.normalize_or_zero())
-        .collect();
+    mesh.normals = normals_at(f, t, &mesh.positions);
     for (tris, _, dropped) in &per_cell {
         stats.dropped_degenerate += dropped;
         mesh.triangles

@@ -19,6 +19,10 @@
 //! closed oriented mesh stays closed and oriented. A pass that could take
 //! the mesh beyond [`TRIANGLE_BUDGET`] times the mechanical mesh's size is
 //! not started (sharp creases mark edges on every pass).
+//!
+//! Evaluation: the centroid gradients of a pass are one batch
+//! ([`crate::mesh::sample::grads_at`]); the midpoint projections are
+//! sequential Newton walks, run in parallel.
 
 use rustc_hash::{FxHashMap as HashMap, FxHashSet};
 
@@ -27,8 +31,9 @@ use rayon::prelude::*;
 
 use super::dynmesh::{EdgeKey, key};
 use super::project::newton;
+use crate::eval::Evaluator;
 use crate::mesh::Mesh;
-use crate::mesh::roots::Field;
+use crate::mesh::sample::grads_at;
 
 /// What [`refine`] did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -44,11 +49,12 @@ pub struct RefineStats {
 /// triangles.
 pub const TRIANGLE_BUDGET: usize = 64;
 
-/// Refines `mech` (whose normals are the unit gradients at its vertices);
-/// see the module doc.
-pub fn refine(
+/// Refines `mech` (whose normals are the unit gradients at its vertices)
+/// on the surface `f(·, t) = 0`; see the module doc.
+pub fn refine<E: Evaluator + ?Sized>(
     mech: &Mesh,
-    field: &dyn Field,
+    f: &E,
+    t: f64,
     alpha_deg: f64,
     passes: usize,
 ) -> (Mesh, RefineStats) {
@@ -63,7 +69,7 @@ pub fn refine(
     let mut tri_n = vec![DVec3::NAN; mesh.triangles.len()];
     let budget = mech.triangles.len().saturating_mul(TRIANGLE_BUDGET);
     for _ in 0..passes {
-        let marked = mark(&mesh, field, cos_a, &mut tri_n);
+        let marked = mark(&mesh, f, t, cos_a, &mut tri_n);
         // A pass adds at most 3 triangles per marked edge; stop before the
         // budget could be exceeded (a crease marks edges on every pass).
         if marked.is_empty() || mesh.triangles.len() + 3 * marked.len() > budget {
@@ -76,7 +82,7 @@ pub fn refine(
             .map(|&(a, b)| {
                 let (pa, pb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
                 let len = pa.distance(pb);
-                let s = newton(field, (pa + pb) * 0.5, len, 0.5 * len);
+                let s = newton(f, t, (pa + pb) * 0.5, len, 0.5 * len);
                 ((a, b), s.map(|s| (s.pos, s.grad)))
             })
             .collect();
@@ -165,22 +171,35 @@ fn compact_new(mesh: &mut Mesh, first: usize, used: &FxHashSet<u32>) {
 }
 
 /// The edges to refine in this pass (sorted, each once).
-fn mark(mesh: &Mesh, field: &dyn Field, cos_a: f64, tri_normals: &mut [DVec3]) -> Vec<EdgeKey> {
+fn mark<E: Evaluator + ?Sized>(
+    mesh: &Mesh,
+    f: &E,
+    t: f64,
+    cos_a: f64,
+    tri_normals: &mut [DVec3],
+) -> Vec<EdgeKey> {
     let n = &mesh.normals;
-    tri_normals
-        .par_iter_mut()
-        .zip(&mesh.triangles)
-        .filter(|(tn, _)| tn.is_nan())
-        .for_each(|(tn, t)| {
-            let c = t.iter().map(|&v| mesh.positions[v as usize]).sum::<DVec3>() / 3.0;
-            let (_, g) = field.gradient(c);
-            let g = g.normalize_or_zero();
-            *tn = if g.is_finite() && g != DVec3::ZERO {
-                g
-            } else {
-                mesh.face_normal(*t).normalize_or_zero()
-            };
-        });
+    let todo: Vec<usize> = (0..tri_normals.len())
+        .filter(|&i| tri_normals[i].is_nan())
+        .collect();
+    let centroids: Vec<DVec3> = todo
+        .iter()
+        .map(|&i| {
+            let tri = mesh.triangles[i];
+            tri.iter()
+                .map(|&v| mesh.positions[v as usize])
+                .sum::<DVec3>()
+                / 3.0
+        })
+        .collect();
+    for (&i, (_, g)) in todo.iter().zip(grads_at(f, t, &centroids)) {
+        let g = g.normalize_or_zero();
+        tri_normals[i] = if g.is_finite() && g != DVec3::ZERO {
+            g
+        } else {
+            mesh.face_normal(mesh.triangles[i]).normalize_or_zero()
+        };
+    }
     let mut edge_tris: HashMap<EdgeKey, [u32; 2]> =
         HashMap::with_capacity_and_hasher(mesh.triangles.len() * 2, Default::default());
     for (i, t) in mesh.triangles.iter().enumerate() {

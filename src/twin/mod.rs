@@ -42,6 +42,16 @@
 //! Every vertex of both meshes is on the surface to machine precision;
 //! both meshes are closed, oriented 2-manifolds (outward = increasing f)
 //! whenever the surface is closed and strictly inside the domain.
+//!
+//! # Evaluation
+//!
+//! The tracker evaluates through any [`Evaluator`]
+//! ([`Tracker::with_evaluator`]; [`Tracker::new`] takes a compiled
+//! [`Surface`]). The gradients at all vertices before a step and at the
+//! triangle centroids of the sharp-feature constraint are batches
+//! ([`crate::mesh::sample::grads_at`]); the projections are sequential
+//! Newton walks ([`project`]), one per vertex, run in parallel; remeshing
+//! evaluates one point at a time (see [`remesh`]).
 
 pub mod dynmesh;
 pub mod fem;
@@ -57,9 +67,10 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::error::Error;
+use crate::eval::Evaluator;
 use crate::interval::Interval;
-use crate::mesh::mesher::{self, MeshOptions, SurfaceField};
-use crate::mesh::roots::Field;
+use crate::mesh::mesher::{self, MeshOptions};
+use crate::mesh::sample::grads_at;
 use crate::mesh::{Mesh, quality, topology};
 use crate::octree::OctreeOptions;
 use crate::surface::{Bounds, Surface};
@@ -170,8 +181,10 @@ pub struct FrameReport {
 }
 
 /// The stepper: see the module doc.
-pub struct Tracker<'s> {
-    surface: &'s Surface,
+pub struct Tracker<'s, E: Evaluator + ?Sized = Surface> {
+    f: &'s E,
+    /// `f` depends on t (otherwise the topology cannot change).
+    moves: bool,
     opts: TwinOptions,
     domain: Bounds,
     edge: f64,
@@ -195,10 +208,33 @@ fn usage(m: String) -> Error {
     Error::Usage(m)
 }
 
-impl<'s> Tracker<'s> {
-    /// Meshes `surface` at `t0` (see the module doc).
+impl<'s> Tracker<'s, Surface> {
+    /// Meshes `surface` at `t0` over `opts.domain` or the surface's own
+    /// (see the module doc).
     pub fn new(surface: &'s Surface, t0: f64, opts: &TwinOptions) -> Result<Tracker<'s>, Error> {
-        let domain = opts.domain.unwrap_or(surface.domain);
+        // A surface that does not depend on t cannot change (the program
+        // is simplified and dead-code free, so an unused t is absent).
+        let moves = surface
+            .program
+            .insts
+            .iter()
+            .any(|op| matches!(op, crate::ir::Op::Var(crate::ir::Var::T)));
+        Tracker::with_evaluator(surface, surface.domain, moves, t0, opts)
+    }
+}
+
+impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
+    /// Meshes `f(·, t0) = 0` over `opts.domain` or, when that is `None`,
+    /// over `domain` (see the module doc). `moves`: whether `f` depends on
+    /// t at all; when it does not, the topology watch is skipped.
+    pub fn with_evaluator(
+        f: &'s E,
+        domain: Bounds,
+        moves: bool,
+        t0: f64,
+        opts: &TwinOptions,
+    ) -> Result<Tracker<'s, E>, Error> {
+        let domain = opts.domain.unwrap_or(domain);
         let side = (0..3)
             .map(|k| domain.hi[k] - domain.lo[k])
             .fold(0.0, f64::max);
@@ -247,7 +283,8 @@ impl<'s> Tracker<'s> {
         // roughly [0, 2] ê, the band the remeshing keeps.
         let level = (side / (1.5 * edge)).log2().ceil().clamp(2.0, 10.0) as u8;
         let mut tracker = Tracker {
-            surface,
+            f,
+            moves,
             opts: *opts,
             domain,
             edge,
@@ -324,7 +361,7 @@ impl<'s> Tracker<'s> {
             smooth: 0,
             domain: Some(self.domain),
         };
-        let (mesh, report) = mesher::mesh(self.surface, &opts, &|_| {});
+        let (mesh, report) = mesher::mesh_with(self.f, self.domain, &opts, &|_| {});
         (mesh, report.topology)
     }
 
@@ -338,16 +375,13 @@ impl<'s> Tracker<'s> {
         self.inverted = vec![false; self.mesh.tris.len()];
         self.edges = remesh::EdgeState::default();
         self.topo = topo_key(&topo);
-        let field = SurfaceField {
-            surface: self.surface,
-            t,
-        };
         let params = self.remesh_params(8);
         for _ in 0..8 {
             let mut scratch = remesh::EdgeState::default();
             let c = remesh::remesh(
                 &mut self.mesh,
-                &field,
+                self.f,
+                t,
                 &params,
                 &mut scratch,
                 &mut self.inverted,
@@ -384,20 +418,12 @@ impl<'s> Tracker<'s> {
 
         // 1. Topology watch.
         let t0 = Instant::now();
-        // A surface that does not depend on t cannot change (the program
-        // is simplified and dead-code free, so an unused t is absent).
-        let moves = self
-            .surface
-            .program
-            .insts
-            .iter()
-            .any(|op| matches!(op, crate::ir::Op::Var(crate::ir::Var::T)));
-        if self.opts.watch && moves && t != self.t {
+        if self.opts.watch && self.moves && t != self.t {
             let interval = Interval {
                 lo: self.t.min(t),
                 hi: self.t.max(t),
             };
-            let cert = watch::certify(self.surface, self.domain, interval, self.level + 1, 50_000);
+            let cert = watch::certify(self.f, self.domain, interval, self.level + 1, 50_000);
             if cert.verdict == watch::Verdict::Unproved {
                 rep.topology_certified = false;
                 let (mesh, topo) = self.robust(t, 1);
@@ -423,11 +449,7 @@ impl<'s> Tracker<'s> {
 
         // 2–5. Mechanical mesh.
         let t0 = Instant::now();
-        let field = SurfaceField {
-            surface: self.surface,
-            t,
-        };
-        let mut step = self.step(&field);
+        let mut step = self.step(t);
         if step.failures > 0 {
             let (mesh, topo) = self.robust(t, 0);
             rep.reinitialized = Some(format!(
@@ -435,7 +457,7 @@ impl<'s> Tracker<'s> {
                 step.failures
             ));
             self.reinit(&mesh, topo, t);
-            step = self.step(&field);
+            step = self.step(t);
             if step.failures > 0 {
                 // Keep the robust mesh itself: it is on the surface.
                 let (mesh, topo) = self.robust(t, 0);
@@ -451,7 +473,7 @@ impl<'s> Tracker<'s> {
             if left == 0 {
                 break;
             }
-            let s = self.step(&field);
+            let s = self.step(t);
             rep.cg_iterations += s.cg_iterations;
             if s.failures > 0 {
                 break;
@@ -467,7 +489,8 @@ impl<'s> Tracker<'s> {
         self.edges.new_frozen.clear();
         let counts = remesh::remesh(
             &mut self.mesh,
-            &field,
+            self.f,
+            t,
             &params,
             &mut self.edges,
             &mut self.inverted,
@@ -493,7 +516,7 @@ impl<'s> Tracker<'s> {
 
         // 6. Geometric mesh.
         let t0 = Instant::now();
-        let (geo, gs) = geometric::refine(mech, &field, self.opts.alpha_deg, self.opts.passes);
+        let (geo, gs) = geometric::refine(mech, self.f, t, self.opts.alpha_deg, self.opts.passes);
         rep.geometric_splits = gs.splits;
         rep.geometric_budget_hit = gs.budget_hit;
         self.geometric = geo;
@@ -551,20 +574,17 @@ impl<'s> Tracker<'s> {
             .collect();
     }
 
-    /// One quasi-static step at the field's time, then projection.
-    fn step(&mut self, field: &SurfaceField) -> StepResult {
+    /// One quasi-static step at time `t`, then projection.
+    fn step(&mut self, t: f64) -> StepResult {
         let n = self.mesh.pos.len();
-        // Gradients at the current positions.
-        let grads: Vec<DVec3> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                if self.mesh.vert_alive[i] {
-                    field.gradient(self.mesh.pos[i]).1
-                } else {
-                    DVec3::ZERO
-                }
-            })
-            .collect();
+        // Gradients at the current positions (one batch over the live
+        // vertices).
+        let alive: Vec<usize> = (0..n).filter(|&i| self.mesh.vert_alive[i]).collect();
+        let at: Vec<DVec3> = alive.iter().map(|&i| self.mesh.pos[i]).collect();
+        let mut grads = vec![DVec3::ZERO; n];
+        for (&i, (_, g)) in alive.iter().zip(grads_at(self.f, t, &at)) {
+            grads[i] = g;
+        }
         self.mesh.grad = grads;
         self.flag_inversions();
         let frames = Frames::new(&self.mesh, &self.stiff, &self.inverted);
@@ -579,7 +599,7 @@ impl<'s> Tracker<'s> {
         let (mut dx, iters) = self.solve(&frames, &normals, &b);
         if self.opts.sharp {
             for _ in 0..SHARP_ITERATIONS {
-                self.sharp_constraint(field, &mut dx);
+                self.sharp_constraint(t, &mut dx);
             }
         }
 
@@ -592,7 +612,7 @@ impl<'s> Tracker<'s> {
                     return None;
                 }
                 let p = self.mesh.pos[i] + dx[i];
-                project::newton(field, p, reach, self.edge)
+                project::newton(self.f, t, p, reach, self.edge)
             })
             .collect();
         let mut failures = 0;
@@ -677,24 +697,23 @@ impl<'s> Tracker<'s> {
     /// the gradient at `p` in place of `m_τ`, which would only move `p`
     /// along its own normal and be undone by the projection; Ohtake et
     /// al.'s formula, which the paper cites for it, uses the centroids'.)
-    fn sharp_constraint(&self, field: &SurfaceField, dx: &mut [DVec3]) {
+    fn sharp_constraint(&self, t: f64, dx: &mut [DVec3]) {
         let m = &self.mesh;
         let p: Vec<DVec3> = m.pos.iter().zip(dx.iter()).map(|(a, b)| *a + *b).collect();
-        let planes: Vec<(DVec3, DVec3, f64)> = m
-            .tris
-            .par_iter()
-            .enumerate()
-            .map(|(i, t)| {
-                if !m.tri_alive[i] {
-                    return (DVec3::ZERO, DVec3::ZERO, 0.0);
-                }
-                let q = t.map(|v| p[v as usize]);
-                let c = (q[0] + q[1] + q[2]) / 3.0;
-                let n = field.gradient(c).1.normalize_or_zero();
-                let area = 0.5 * (q[1] - q[0]).cross(q[2] - q[0]).length();
-                (c, n, if n.is_finite() { area } else { 0.0 })
-            })
-            .collect();
+        // ∇f at the live triangles' centroids, one batch.
+        let live: Vec<usize> = (0..m.tris.len()).filter(|&i| m.tri_alive[i]).collect();
+        let centroid = |i: usize| {
+            let q = m.tris[i].map(|v| p[v as usize]);
+            (q[0] + q[1] + q[2]) / 3.0
+        };
+        let at: Vec<DVec3> = live.iter().map(|&i| centroid(i)).collect();
+        let mut planes = vec![(DVec3::ZERO, DVec3::ZERO, 0.0); m.tris.len()];
+        for ((&i, c), (_, g)) in live.iter().zip(at.iter()).zip(grads_at(self.f, t, &at)) {
+            let q = m.tris[i].map(|v| p[v as usize]);
+            let n = g.normalize_or_zero();
+            let area = 0.5 * (q[1] - q[0]).cross(q[2] - q[0]).length();
+            planes[i] = (*c, n, if n.is_finite() { area } else { 0.0 });
+        }
         for (i, d) in dx.iter_mut().enumerate() {
             if !m.vert_alive[i] {
                 continue;

@@ -14,11 +14,19 @@
 //! towards and never jumps to another one. The result is on the surface
 //! to machine precision: the last Newton step (or the bracket) is a few
 //! ulps of the coordinates. Every step costs one value-and-gradient
-//! evaluation.
+//! evaluation ([`Evaluator::point_grad`]); each depends on the last, so the
+//! walk is sequential (callers run many walks in parallel).
 
 use glam::DVec3;
 
-use crate::mesh::roots::{Field, bisect};
+use crate::eval::Evaluator;
+use crate::mesh::roots::{at, bisect};
+
+/// `(f, ∇f)` at `(p, t)`.
+fn grad_at<E: Evaluator + ?Sized>(f: &E, t: f64, p: DVec3) -> (f64, DVec3) {
+    let (v, g) = f.point_grad(at(p, t));
+    (v, DVec3::from_array(g))
+}
 
 /// A point on the surface and ∇f there.
 #[derive(Clone, Copy, Debug)]
@@ -27,10 +35,16 @@ pub struct OnSurface {
     pub grad: DVec3,
 }
 
-/// See the module doc.
-pub fn newton(f: &dyn Field, p0: DVec3, max_dist: f64, max_step: f64) -> Option<OnSurface> {
+/// `p0` moved onto `f(·, t) = 0`; see the module doc.
+pub fn newton<E: Evaluator + ?Sized>(
+    f: &E,
+    t: f64,
+    p0: DVec3,
+    max_dist: f64,
+    max_step: f64,
+) -> Option<OnSurface> {
     let mut p = p0;
-    let (mut fp, mut g) = f.gradient(p);
+    let (mut fp, mut g) = grad_at(f, t, p);
     for _ in 0..64 {
         if !fp.is_finite() || !g.is_finite() {
             return None;
@@ -54,7 +68,7 @@ pub fn newton(f: &dyn Field, p0: DVec3, max_dist: f64, max_step: f64) -> Option<
             if q.distance(p0) > max_dist {
                 return None;
             }
-            let (fq, gq) = f.gradient(q);
+            let (fq, gq) = grad_at(f, t, q);
             if fq.is_nan() {
                 return None;
             }
@@ -62,7 +76,7 @@ pub fn newton(f: &dyn Field, p0: DVec3, max_dist: f64, max_step: f64) -> Option<
                 return Some(OnSurface { pos: q, grad: gq });
             }
             if (fq < 0.0) != (fp < 0.0) {
-                return Some(bracketed(f, p, fp, q, fq, gq));
+                return Some(bracketed(f, t, [p, q], fp, fq, gq));
             }
             if step.length() <= tiny {
                 return Some(OnSurface { pos: q, grad: gq });
@@ -86,11 +100,19 @@ fn tiny(p: DVec3) -> f64 {
     4.0 * f64::EPSILON * p.abs().max_element().max(f64::MIN_POSITIVE)
 }
 
-/// The zero on the segment `a → b`, where `f` changes sign (`fb`, `gb`
-/// at `b`): Newton's method on `s ↦ f(a + s·u)` from `b`, each step kept
-/// inside the shrinking sign-change bracket, bisecting when Newton would
-/// leave it (a "safe" Newton, one gradient evaluation per step).
-fn bracketed(f: &dyn Field, a: DVec3, fa: f64, b: DVec3, fb: f64, gb: DVec3) -> OnSurface {
+/// The zero on the segment `a → b`, where `f(·, t)` changes sign (`fa` at
+/// `a`, `fb`, `gb` at `b`): Newton's method on `s ↦ f(a + s·u)` from `b`,
+/// each step kept inside the shrinking sign-change bracket, bisecting when
+/// Newton would leave it (a "safe" Newton, one gradient evaluation per
+/// step).
+fn bracketed<E: Evaluator + ?Sized>(
+    f: &E,
+    t: f64,
+    [a, b]: [DVec3; 2],
+    fa: f64,
+    fb: f64,
+    gb: DVec3,
+) -> OnSurface {
     let len = a.distance(b);
     let u = (b - a) / len;
     let neg_at_lo = fa < 0.0;
@@ -107,13 +129,13 @@ fn bracketed(f: &dyn Field, a: DVec3, fa: f64, b: DVec3, fb: f64, gb: DVec3) -> 
             break;
         }
         let x = a + u * next;
-        let (fx, gx) = f.gradient(x);
+        let (fx, gx) = grad_at(f, t, x);
         if fx.is_nan() {
             // Undefined inside the bracket: plain bisection copes.
-            let r = bisect(f, a, b, fa, fb);
+            let r = bisect(f, t, a, b, fa, fb);
             return OnSurface {
                 pos: r,
-                grad: f.gradient(r).1,
+                grad: grad_at(f, t, r).1,
             };
         }
         if fx == 0.0 || (next - s).abs() <= tiny {
@@ -135,23 +157,32 @@ fn bracketed(f: &dyn Field, a: DVec3, fa: f64, b: DVec3, fb: f64, gb: DVec3) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::eval::{GradEval, WHOLE, WHOLE_GRAD};
+    use crate::interval::{DecInterval, Interval};
 
+    /// Two unit spheres at x = ±1.5. Only the point methods are used here;
+    /// the box methods answer the whole line, flagged not defined (sound,
+    /// and never asked).
     struct Spheres;
-    impl Field for Spheres {
-        // Two unit spheres at x = ±1.5.
-        fn value(&self, p: DVec3) -> f64 {
-            let a = (p - DVec3::X * 1.5).length_squared() - 1.0;
-            let b = (p + DVec3::X * 1.5).length_squared() - 1.0;
-            a.min(b)
+    impl Evaluator for Spheres {
+        fn point(&self, p: [f64; 4]) -> f64 {
+            self.point_grad(p).0
         }
-        fn gradient(&self, p: DVec3) -> (f64, DVec3) {
+        fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
+            let p = DVec3::new(p[0], p[1], p[2]);
             let a = (p - DVec3::X * 1.5).length_squared() - 1.0;
             let b = (p + DVec3::X * 1.5).length_squared() - 1.0;
             if a <= b {
-                (a, 2.0 * (p - DVec3::X * 1.5))
+                (a, (2.0 * (p - DVec3::X * 1.5)).to_array())
             } else {
-                (b, 2.0 * (p + DVec3::X * 1.5))
+                (b, (2.0 * (p + DVec3::X * 1.5)).to_array())
             }
+        }
+        fn interval(&self, _: [Interval; 4]) -> DecInterval {
+            WHOLE
+        }
+        fn grad(&self, _: [Interval; 4]) -> GradEval {
+            WHOLE_GRAD
         }
     }
 
@@ -163,11 +194,11 @@ mod tests {
             DVec3::new(3.0, 0.5, -0.2),
             DVec3::new(-1.5, 0.0, 2.5),
         ] {
-            let s = newton(&f, p, 10.0, 0.5).unwrap();
-            assert!(f.value(s.pos).abs() < 1e-14, "{p} → {}", s.pos);
+            let s = newton(&f, 0.0, p, 10.0, 0.5).unwrap();
+            assert!(f.point(at(s.pos, 0.0)).abs() < 1e-14, "{p} → {}", s.pos);
         }
         // Too far: refused.
-        assert!(newton(&f, DVec3::new(1.5, 0.0, 4.0), 1.0, 0.5).is_none());
+        assert!(newton(&f, 0.0, DVec3::new(1.5, 0.0, 4.0), 1.0, 0.5).is_none());
     }
 
     #[test]
@@ -176,7 +207,7 @@ mod tests {
         // point is on.
         let f = Spheres;
         let p = DVec3::new(0.2, 0.0, 0.0);
-        let s = newton(&f, p, 3.0, 0.1).unwrap();
+        let s = newton(&f, 0.0, p, 3.0, 0.1).unwrap();
         assert!(s.pos.x > 0.0, "{}", s.pos);
     }
 }

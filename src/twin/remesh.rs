@@ -32,6 +32,10 @@
 //! each one strictly improves the quad), so that the triangles a split
 //! leaves behind are repaired at once. No vertex is touched twice in one
 //! sweep.
+//!
+//! Evaluation: each projection is one sequential Newton walk
+//! ([`newton`]) and each operation changes the mesh the next one sees, so
+//! the function is evaluated one point at a time here.
 
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
@@ -39,7 +43,7 @@ use glam::DVec3;
 
 use super::dynmesh::{DynMesh, EdgeKey, key};
 use super::project::newton;
-use crate::mesh::roots::Field;
+use crate::eval::Evaluator;
 
 /// Thresholds of [`remesh`].
 #[derive(Clone, Copy, Debug)]
@@ -98,9 +102,10 @@ pub struct EdgeState {
 
 /// One remeshing pass; see the module doc. `inverted[i]` flags triangle
 /// `i` (triangles created here are not).
-pub fn remesh(
+pub fn remesh<E: Evaluator + ?Sized>(
     mesh: &mut DynMesh,
-    field: &dyn Field,
+    f: &E,
+    t: f64,
     p: &Params,
     edges: &mut EdgeState,
     inverted: &mut Vec<bool>,
@@ -152,7 +157,7 @@ pub fn remesh(
                 continue;
             }
             let mid = (mesh.pos[a as usize] + mesh.pos[b as usize]) * 0.5;
-            let Some(s) = newton(field, mid, 0.5 * len, 0.25 * len) else {
+            let Some(s) = newton(f, t, mid, 0.5 * len, 0.25 * len) else {
                 held.insert(e, Held::Projection);
                 continue;
             };
@@ -196,7 +201,7 @@ pub fn remesh(
                 continue;
             }
             let mid = (mesh.pos[a as usize] + mesh.pos[b as usize]) * 0.5;
-            let Some(s) = newton(field, mid, p.edge, 0.25 * p.edge) else {
+            let Some(s) = newton(f, t, mid, p.edge, 0.25 * p.edge) else {
                 held.insert(e, Held::Projection);
                 continue;
             };

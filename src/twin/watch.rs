@@ -23,11 +23,16 @@
 //! failing there, or a work budget spent, makes the answer
 //! [`Verdict::Unproved`] — *maybe* a topology change, which the tracker
 //! then settles with the robust mesher.
+//!
+//! Any [`Evaluator`] will do; each level's cells are one
+//! [`Evaluator::grad_batch`] call, and one [`Evaluator::interval_batch`]
+//! over the cells whose gradient flag dropped.
 
 use glam::DVec3;
 
+use crate::eval::{Evaluator, WHOLE, WHOLE_GRAD};
 use crate::interval::Interval;
-use crate::surface::{Bounds, Surface};
+use crate::surface::Bounds;
 
 /// What [`certify`] concluded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -47,8 +52,8 @@ pub struct Report {
 }
 
 /// See the module doc. `budget` bounds the number of cells evaluated.
-pub fn certify(
-    surface: &Surface,
+pub fn certify<E: Evaluator + ?Sized>(
+    f: &E,
     domain: Bounds,
     t: Interval,
     max_level: u8,
@@ -83,7 +88,8 @@ pub fn certify(
             })
             .collect();
         evaluated += boxes.len();
-        let evals = surface.grad_batch(&boxes);
+        let mut evals = vec![WHOLE_GRAD; boxes.len()];
+        f.grad_batch(&boxes, &mut evals);
         // Where F is not differentiable on the whole box (e.g. `sqrt` at
         // 0), the value kernel may still prove the box empty.
         let undiff: Vec<[Interval; 4]> = boxes
@@ -92,7 +98,9 @@ pub fn certify(
             .filter(|(_, g)| !g.defined)
             .map(|(b, _)| *b)
             .collect();
-        let mut values = surface.interval_batch(&undiff).into_iter();
+        let mut values = vec![WHOLE; undiff.len()];
+        f.interval_batch(&undiff, &mut values);
+        let mut values = values.into_iter();
         let mut next = Vec::new();
         for (&ijk, g) in cells.iter().zip(&evals) {
             let empty = |v: Interval| v.lo > 0.0 || v.hi < 0.0;

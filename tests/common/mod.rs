@@ -1,6 +1,6 @@
 //! Shared test support: random IR programs and boxes (proptest strategies),
 //! point sampling, the soundness checks, and [`backend_suite!`], the one
-//! test suite every [`Backend`] (reference interpreters, JIT) must pass.
+//! test suite every [`Evaluator`] (reference interpreters, JIT) must pass.
 //!
 //! Use from a test file:
 //!
@@ -15,7 +15,7 @@
 
 pub mod exact;
 
-use isoc::eval::{Backend, Reference, grad, point};
+use isoc::eval::{Evaluator, Reference, grad, point};
 use isoc::interval::Interval;
 use isoc::ir::{BinOp, Const, Op, Program, UnOp, Value, Var};
 use proptest::prelude::*;
@@ -408,7 +408,7 @@ fn undefined_at(program: &Program, p: [f64; 4]) -> bool {
 /// backend's and the reference's point values lie in the backend's
 /// interval; the backend's point value equals the reference's; where the
 /// value is undefined the interval says so.
-pub fn check_interval<B: Backend>(
+pub fn check_interval<B: Evaluator>(
     backend: &B,
     program: &Program,
     b: &[Interval; 4],
@@ -453,7 +453,7 @@ pub fn check_interval<B: Backend>(
 /// Gradient soundness on one program and box: the value interval of the
 /// gradient kernel contains the point values, and the gradient intervals
 /// contain the point gradients (forward-mode AD in f64) at sample points.
-pub fn check_grad<B: Backend>(
+pub fn check_grad<B: Evaluator>(
     backend: &B,
     program: &Program,
     b: &[Interval; 4],
@@ -498,7 +498,7 @@ pub fn check_grad<B: Backend>(
 
 /// The degenerate box `[p, p]`: interval and gradient kernels contain the
 /// point value and gradient at `p`.
-pub fn check_degenerate<B: Backend>(
+pub fn check_degenerate<B: Evaluator>(
     backend: &B,
     program: &Program,
     p: [f64; 4],
@@ -535,6 +535,138 @@ pub fn check_degenerate<B: Backend>(
     Ok(())
 }
 
+/// Bit-for-bit equality of two floats, every NaN equal to every NaN.
+pub fn bits_eq(a: f64, b: f64) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+}
+
+fn iv_bits_eq(a: Interval, b: Interval) -> bool {
+    bits_eq(a.lo, b.lo) && bits_eq(a.hi, b.hi)
+}
+
+/// Every batch method equals its single method element by element, bit for
+/// bit (`pts` at time `t` for the point forms, `boxes` for the box forms).
+pub fn check_batches<E: Evaluator>(
+    e: &E,
+    pts: &[[f64; 3]],
+    t: f64,
+    boxes: &[[Interval; 4]],
+) -> Result<(), String> {
+    let n = pts.len();
+    let col = |k: usize| pts.iter().map(|p| p[k]).collect::<Vec<f64>>();
+    let mut out = vec![1.5; n];
+    e.point_batch(&col(0), &col(1), &col(2), t, &mut out);
+    let mut pg = vec![(1.5, [1.5; 3]); n];
+    e.point_grad_batch(pts, t, &mut pg);
+    for (i, q) in pts.iter().enumerate() {
+        let at = [q[0], q[1], q[2], t];
+        let single = e.point(at);
+        if !bits_eq(out[i], single) {
+            return Err(format!(
+                "point_batch[{i}] of {n} {:e} != point {single:e} at {at:?}",
+                out[i]
+            ));
+        }
+        let (v, g) = e.point_grad(at);
+        let (bv, bg) = pg[i];
+        if !bits_eq(v, bv) || (0..3).any(|k| !bits_eq(g[k], bg[k])) {
+            return Err(format!(
+                "point_grad_batch[{i}] of {n} {:?} != point_grad {:?} at {at:?}",
+                pg[i],
+                (v, g)
+            ));
+        }
+    }
+    let m = boxes.len();
+    let mut iv = vec![isoc::eval::WHOLE; m];
+    e.interval_batch(boxes, &mut iv);
+    let mut gr = vec![isoc::eval::WHOLE_GRAD; m];
+    e.grad_batch(boxes, &mut gr);
+    for (i, b) in boxes.iter().enumerate() {
+        let single = e.interval(*b);
+        if !iv_bits_eq(iv[i].iv, single.iv) || iv[i].defined != single.defined {
+            return Err(format!(
+                "interval_batch[{i}] of {m} {:?} != interval {single:?} on {b:?}",
+                iv[i]
+            ));
+        }
+        let single = e.grad(*b);
+        let same_grad = (0..3).all(|k| iv_bits_eq(gr[i].grad[k], single.grad[k]));
+        if !iv_bits_eq(gr[i].value, single.value) || !same_grad || gr[i].defined != single.defined {
+            return Err(format!(
+                "grad_batch[{i}] of {m} {:?} != grad {single:?} on {b:?}",
+                gr[i]
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The point gradient at `p`: its value is the point value, and value and
+/// gradient lie in the interval-gradient enclosure over a small box around
+/// `p` (and over the degenerate box `[p, p]`).
+pub fn check_point_grad<E: Evaluator>(e: &E, program: &Program, p: [f64; 4]) -> Result<(), String> {
+    let (v, d) = e.point_grad(p);
+    let pv = e.point(p);
+    if !same(v, pv) {
+        return Err(format!(
+            "point_grad value {v:e} != point {pv:e} at {p:?}\n{}",
+            show(program, &p.map(Interval::point))
+        ));
+    }
+    let h = |c: f64| (c.abs() * 1e-6).max(1e-9);
+    let small: [Interval; 4] = std::array::from_fn(|k| {
+        if k < 3 {
+            Interval::new(p[k] - h(p[k]), p[k] + h(p[k]))
+        } else {
+            Interval::point(p[k])
+        }
+    });
+    for b in [small, p.map(Interval::point)] {
+        let g = e.grad(b);
+        if !encloses(g.value, v) {
+            return Err(format!(
+                "grad value {:?} misses point_grad value {v:e}\n{}",
+                g.value,
+                show(program, &b)
+            ));
+        }
+        for k in 0..3 {
+            if !encloses(g.grad[k], d[k]) {
+                return Err(format!(
+                    "partial {k} {:?} misses point_grad {:e} at {p:?}\n{}",
+                    g.grad[k],
+                    d[k],
+                    show(program, &b)
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A coordinate for the batch checks: [`arb_coord`], or now and then NaN,
+/// ±∞, ±0 or a subnormal.
+pub fn arb_batch_coord() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        6 => arb_coord(),
+        1 => prop::sample::select(vec![
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            -0.0,
+            0.0,
+            -f64::MIN_POSITIVE,
+            5e-324,
+        ]),
+    ]
+}
+
+/// A batch length: 0, 1, 2, 3, 17 or anything below 40.
+pub fn arb_batch_len() -> impl Strategy<Value = usize> {
+    prop_oneof![prop::sample::select(vec![0usize, 1, 2, 3, 17]), 0usize..40]
+}
+
 /// Cases per property (at least 10,000; `PROPTEST_CASES` overrides).
 pub fn cases() -> u32 {
     std::env::var("PROPTEST_CASES")
@@ -553,8 +685,8 @@ macro_rules! backend_suite {
             #[allow(unused_imports)]
             use super::*;
             use $crate::common::{
-                arb_box, arb_point, arb_program, cases, check_degenerate, check_grad,
-                check_interval,
+                arb_batch_coord, arb_batch_len, arb_box, arb_point, arb_program, cases,
+                check_batches, check_degenerate, check_grad, check_interval, check_point_grad,
             };
             use proptest::prelude::*;
 
@@ -582,6 +714,32 @@ macro_rules! backend_suite {
                     let backend = ($make)(&program);
                     if let Err(e) = check_degenerate(&backend, &program, p) {
                         prop_assert!(false, "{}", e);
+                    }
+                }
+
+                #[test]
+                fn point_grad_is_point_and_inside_interval_grad(program in arb_program(), p in arb_point()) {
+                    let backend = ($make)(&program);
+                    if let Err(e) = check_point_grad(&backend, &program, p) {
+                        prop_assert!(false, "{}", e);
+                    }
+                }
+            }
+
+            proptest! {
+                // Each case checks up to 40 points and 40 boxes.
+                #![proptest_config(ProptestConfig::with_cases((cases() / 10).max(1)))]
+
+                #[test]
+                fn batch_equals_single(
+                    program in arb_program(),
+                    pts in arb_batch_len().prop_flat_map(|n| prop::collection::vec([arb_batch_coord(), arb_batch_coord(), arb_batch_coord()], n)),
+                    t in arb_batch_coord(),
+                    boxes in arb_batch_len().prop_flat_map(|n| prop::collection::vec(arb_box(), n)),
+                ) {
+                    let backend = ($make)(&program);
+                    if let Err(e) = check_batches(&backend, &pts, t, &boxes) {
+                        prop_assert!(false, "{}\n{}", e, program);
                     }
                 }
             }

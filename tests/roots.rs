@@ -1,0 +1,184 @@
+//! Lock-step bisection ([`bisect_batch`]) against the scalar [`bisect`]:
+//! on many random edges of a few functions (smooth, with a crease, with a
+//! hole in the domain, with a pole), through the JIT (batch kernel) and the
+//! reference interpreters (default batch loop), every result is bit for
+//! bit the scalar one; one segment's evaluated points are the scalar's, in
+//! the same order; and the batch takes exactly as many rounds as its
+//! longest segment needs.
+
+use std::sync::Mutex;
+
+use glam::DVec3;
+use isoc::eval::{Evaluator, GradEval, Reference};
+use isoc::interval::{DecInterval, Interval};
+use isoc::mesh::roots::{Segment, bisect, bisect_batch};
+use isoc::{CompileOptions, Surface};
+
+const FUNCTIONS: [&str; 4] = [
+    // Smooth.
+    "domain [-1.3, 1.3]^3; surface x^2 + y^2 + z^2 - 1;",
+    // A crease where the two tori meet (min), sqrt.
+    "domain [-2.6, 2.6], [-1.5, 1.5], [-0.6, 0.6];
+     fn torus(x, y, z) = (sqrt(x^2 + y^2) - 1)^2 + z^2 - 0.09;
+     surface min(torus(x - 1.15, y, z), torus(x + 1.15, y, z));",
+    // Undefined (NaN) for |x| < 0.5: brackets across the hole.
+    "domain [-1, 1]^3; surface sqrt(x^2 - 0.25) - y - 0.3;",
+    // A pole: the sign changes across x = 0 without a zero.
+    "domain [-1, 1]^3; surface 1 / x - y;",
+];
+
+/// SplitMix64.
+struct Rng(u64);
+impl Rng {
+    fn unit(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+fn at(p: DVec3, t: f64) -> [f64; 4] {
+    [p.x, p.y, p.z, t]
+}
+
+/// Random segments of `s`'s domain whose ends have opposite signs
+/// (`f < 0` against not): long ones, short ones, axis-aligned ones like
+/// the dual grid's.
+fn segments(s: &Surface, n: usize, seed: u64) -> Vec<Segment> {
+    let d = s.domain;
+    let mut rng = Rng(seed);
+    let point = |rng: &mut Rng| {
+        DVec3::from_array(std::array::from_fn(|k| {
+            d.lo[k] + (d.hi[k] - d.lo[k]) * rng.unit()
+        }))
+    };
+    let mut out = Vec::new();
+    let mut tries = 0;
+    while out.len() < n && tries < 200 * n {
+        tries += 1;
+        let a = point(&mut rng);
+        let b = match tries % 3 {
+            0 => point(&mut rng),
+            1 => a + (point(&mut rng) - a) * 1e-3,
+            _ => {
+                let mut b = a;
+                let k = (rng.unit() * 3.0) as usize % 3;
+                b[k] = d.lo[k] + (d.hi[k] - d.lo[k]) * rng.unit();
+                b
+            }
+        };
+        let (fa, fb) = (s.point(at(a, 0.0)), s.point(at(b, 0.0)));
+        if (fa < 0.0) != (fb < 0.0) {
+            out.push(Segment { a, b, fa, fb });
+        }
+    }
+    assert!(out.len() == n, "only {} segments found", out.len());
+    out
+}
+
+fn bits(p: DVec3) -> [u64; 3] {
+    p.to_array().map(f64::to_bits)
+}
+
+#[test]
+fn batch_bisection_is_scalar_bisection_bit_for_bit() {
+    for (fi, src) in FUNCTIONS.iter().enumerate() {
+        let s = Surface::compile(src, "roots.iso", &CompileOptions::default()).expect("compiles");
+        let reference = Reference(s.program.clone());
+        let segs = segments(&s, 600, 17 + fi as u64);
+        let jit = bisect_batch(&s, 0.0, &segs);
+        let interp = bisect_batch(&reference, 0.0, &segs);
+        assert_eq!(jit.len(), segs.len());
+        for (i, g) in segs.iter().enumerate() {
+            let want = bisect(&s, 0.0, g.a, g.b, g.fa, g.fb);
+            assert_eq!(
+                bits(jit[i]),
+                bits(want),
+                "function {fi}, segment {i}: {g:?}"
+            );
+            let want = bisect(&reference, 0.0, g.a, g.b, g.fa, g.fb);
+            assert_eq!(
+                bits(interp[i]),
+                bits(want),
+                "function {fi}, segment {i} (reference)"
+            );
+        }
+        // Batches of every small size, and the empty one.
+        for n in [0, 1, 2, 3, 7] {
+            let got = bisect_batch(&s, 0.0, &segs[..n]);
+            assert_eq!(got.len(), n);
+            for (p, q) in got.iter().zip(&jit) {
+                assert_eq!(bits(*p), bits(*q), "function {fi}, batch of {n}");
+            }
+        }
+    }
+}
+
+/// Records every point evaluated and every batch call.
+struct Recorder {
+    inner: Reference,
+    points: Mutex<Vec<[f64; 4]>>,
+    batches: Mutex<usize>,
+}
+
+impl Evaluator for Recorder {
+    fn point(&self, p: [f64; 4]) -> f64 {
+        self.points.lock().unwrap().push(p);
+        self.inner.point(p)
+    }
+    fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
+        self.inner.point_grad(p)
+    }
+    fn interval(&self, b: [Interval; 4]) -> DecInterval {
+        self.inner.interval(b)
+    }
+    fn grad(&self, b: [Interval; 4]) -> GradEval {
+        self.inner.grad(b)
+    }
+    fn point_batch(&self, xs: &[f64], ys: &[f64], zs: &[f64], t: f64, out: &mut [f64]) {
+        *self.batches.lock().unwrap() += 1;
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.point([xs[i], ys[i], zs[i], t]);
+        }
+    }
+}
+
+impl Recorder {
+    fn take(&self) -> (Vec<[u64; 4]>, usize) {
+        let pts = std::mem::take(&mut *self.points.lock().unwrap());
+        let batches = std::mem::take(&mut *self.batches.lock().unwrap());
+        (pts.iter().map(|p| p.map(f64::to_bits)).collect(), batches)
+    }
+}
+
+#[test]
+fn batch_bisection_asks_for_the_scalar_points_in_lock_step() {
+    for (fi, src) in FUNCTIONS.iter().enumerate() {
+        let s = Surface::compile(src, "roots.iso", &CompileOptions::default()).expect("compiles");
+        let rec = Recorder {
+            inner: Reference(s.program.clone()),
+            points: Mutex::new(Vec::new()),
+            batches: Mutex::new(0),
+        };
+        let segs = segments(&s, 60, 99 + fi as u64);
+        let mut longest = 0;
+        for g in &segs {
+            bisect(&rec, 0.0, g.a, g.b, g.fa, g.fb);
+            let (scalar, _) = rec.take();
+            bisect_batch(&rec, 0.0, std::slice::from_ref(g));
+            let (batch, rounds) = rec.take();
+            assert_eq!(batch, scalar, "function {fi}: {g:?}");
+            // The two end values share the last round.
+            assert_eq!(rounds, scalar.len() - 1, "function {fi}: {g:?}");
+            longest = longest.max(rounds);
+        }
+        bisect_batch(&rec, 0.0, &segs);
+        let (_, rounds) = rec.take();
+        assert_eq!(
+            rounds, longest,
+            "function {fi}: one round per step of the longest"
+        );
+    }
+}
