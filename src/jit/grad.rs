@@ -169,6 +169,25 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
                 };
                 (g, None)
             }
+            Op::Powi(a, n) if (1..=interval::INLINE_POWI_MAX).contains(&n) => {
+                // d(aⁿ) = (n·aⁿ⁻¹)·da, with the interval kernel's inline
+                // powers (the reference's rule, inline).
+                let a = vals[a.index()].0;
+                let v = interval::powi(env, a.v, n as u64);
+                let d = if n == 1 {
+                    a.d
+                } else {
+                    let p = interval::powi(env, a.v, (n - 1) as u64);
+                    let nc = env.b.ins().f64const(n as f64);
+                    let k = interval::Konst {
+                        lo: n as f64,
+                        hi: n as f64,
+                    };
+                    let f = interval::mul_by_konst(env, p, (nc, nc), k);
+                    a.d.map(|c| d_scale(env, f, None, c))
+                };
+                (G { v, d, k: None }, None)
+            }
             Op::Unary(u, a) => {
                 let (r, d) = env.call_gd(
                     super::helpers::unop_code(u),

@@ -347,7 +347,7 @@ fn pow_bound(env: &mut Env, x: Value, mut n: u64, up: bool) -> Value {
 pub(super) const INLINE_POWI_MAX: i64 = 8;
 
 /// `[lo, hi]^n`, `n ≥ 1`.
-fn powi(env: &mut Env, (lo, hi): Iv, n: u64) -> Iv {
+pub(super) fn powi(env: &mut Env, (lo, hi): Iv, n: u64) -> Iv {
     if n == 1 {
         return (lo, hi);
     }
