@@ -69,6 +69,9 @@ fn corpus_is_complete() {
         "twospheres",
         "nested",
         "pulse",
+        "chebyshev",
+        "decocube",
+        "chair_off",
     ] {
         assert!(
             names.iter().any(|n| n.ends_with(&format!("/{want}.iso"))),
@@ -223,7 +226,7 @@ fn corpus_values_match_hand_written_formulas() {
         (x * x + y * y + z * z - a * k * k).powi(2)
             - b * ((z - k).powi(2) - 2.0 * x * x) * ((z + k).powi(2) - 2.0 * y * y)
     }
-    let cases: [(&str, F); 21] = [
+    let cases: [(&str, F); 24] = [
         ("torus_fig1", |x, y, z, _| {
             (1.5 - (x * x + y * y).sqrt()).powi(2) + z * z - 1.35f64.powi(2)
         }),
@@ -288,6 +291,20 @@ fn corpus_values_match_hand_written_formulas() {
             let d = 1.6 - t;
             let blob = |cx: f64| (-((x - cx).powi(2) + y * y + z * z)).exp();
             0.3 - blob(-d) - blob(d)
+        }),
+        ("chebyshev", |x, y, z, _| {
+            let t6 = |u: f64| 32.0 * u.powi(6) - 48.0 * u.powi(4) + 18.0 * u * u - 1.0;
+            t6(x) + t6(y) + t6(z)
+        }),
+        ("decocube", |x, y, z, _| {
+            let ring = |u: f64, v: f64, w: f64| (u * u + v * v - 0.64).powi(2) + (w * w - 1.0).powi(2);
+            ring(x, y, z) * ring(y, z, x) * ring(z, x, y) - 0.01
+        }),
+        ("chair_off", |x, y, z, _| {
+            let (x, y, z) = (x - 0.37, y + 0.61, z - 0.23);
+            let k: f64 = 5.0;
+            (x * x + y * y + z * z - 0.95 * k * k).powi(2)
+                - 0.8 * ((z - k).powi(2) - 2.0 * x * x) * ((z + k).powi(2) - 2.0 * y * y)
         }),
         ("torus_twist", |x, y, z, t| {
             let phi = t * x;
