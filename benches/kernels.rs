@@ -7,6 +7,10 @@
 //! F64X2 (`JitOptions::simd`, the default) against the scalar loop, on
 //! corpus files.
 //! Set `ISOC_BENCH_NO_INTERP=1` to skip the interpreter rows.
+//! `cargo bench --bench kernels -- compile_scaling/` times the front end
+//! and every kernel kind `mesh` needs (compiled in parallel, as `isoc mesh`
+//! does) on sums of N terms `k·u·v`, N = 100, 1,000, 10,000: the ratio of
+//! the N = 10,000 and N = 1,000 times shows whether compile time is linear.
 
 use std::hint::black_box;
 
@@ -223,5 +227,35 @@ fn bench_simd(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench, bench_simd);
+/// `k0·x·y + k1·y·z + k2·x·z + …` with `n` terms and distinct
+/// coefficients, as source text.
+pub fn sum_source(n: usize) -> String {
+    let terms: Vec<String> = (0..n)
+        .map(|i| {
+            let k = ((i * 7919) % 1000) as f64 / 100.0 + 0.5;
+            let v = ["x*y", "y*z", "x*z"][i % 3];
+            format!("{k}*{v}")
+        })
+        .collect();
+    format!("domain [-1, 1]^3;\nsurface {} - 1;\n", terms.join(" + "))
+}
+
+fn bench_compile_scaling(c: &mut Criterion) {
+    let mut g = c.benchmark_group("compile_scaling");
+    g.sample_size(10);
+    for n in [100, 1_000, 10_000] {
+        let src = sum_source(n);
+        g.bench_function(BenchmarkId::from_parameter(n), |b| {
+            b.iter(|| {
+                let s = isoc::Surface::compile(black_box(&src), "sum", &Default::default())
+                    .expect("compile");
+                s.kernels().prepare(&isoc::jit::Kind::EVERY);
+                s
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_simd, bench_compile_scaling);
 criterion_main!(benches);

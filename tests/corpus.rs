@@ -297,7 +297,8 @@ fn corpus_values_match_hand_written_formulas() {
             t6(x) + t6(y) + t6(z)
         }),
         ("decocube", |x, y, z, _| {
-            let ring = |u: f64, v: f64, w: f64| (u * u + v * v - 0.64).powi(2) + (w * w - 1.0).powi(2);
+            let ring =
+                |u: f64, v: f64, w: f64| (u * u + v * v - 0.64).powi(2) + (w * w - 1.0).powi(2);
             ring(x, y, z) * ring(y, z, x) * ring(z, x, y) - 0.01
         }),
         ("chair_off", |x, y, z, _| {

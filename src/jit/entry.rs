@@ -108,9 +108,9 @@ pub(super) fn emit_entry(
 /// The interval or gradient batch entry point, bracketed by the
 /// rounding-mode switch.
 fn emit_box_batch(env: &mut Env, prog: &ir::Program, kind: Kind, params: &[Value]) {
-    let save_slot = env
-        .b
-        .create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 8, 3));
+    let save_slot =
+        env.b
+            .create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 8, 3));
     let save = env.b.ins().stack_addr(env.ptr, save_slot, 0);
     env.call_void(Helper::RmEnter, &[save]);
     let f = Env::flags();

@@ -23,8 +23,8 @@
 
 use cranelift_codegen::ir::{InstBuilder, Value};
 
-use super::{Env, rounding};
 use super::interval::{self, Flag, Iv};
+use super::{Env, rounding};
 use crate::ir::{BinOp, Op, Program, UnOp};
 
 /// `(F, Fx, Fy, Fz)`.
@@ -127,7 +127,14 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
             Op::Const(_) => {
                 let (v, d) = interval::lower_op(env, i, op, &[], &input);
                 let k = interval::konst(prog, crate::ir::Value(i as u32));
-                (G { v, d: [D::Zero; 3], k }, d)
+                (
+                    G {
+                        v,
+                        d: [D::Zero; 3],
+                        k,
+                    },
+                    d,
+                )
             }
             Op::Unary(UnOp::Neg, a) => {
                 let a = vals[a.index()].0;

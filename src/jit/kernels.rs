@@ -191,7 +191,9 @@ impl Kernels {
         // caller below; the code lives as long as `module`, which the
         // entry owns.
         let (single, batch) = unsafe {
-            let last = *p.last().ok_or_else(|| JitError::Codegen("no entry".into()))?;
+            let last = *p
+                .last()
+                .ok_or_else(|| JitError::Codegen("no entry".into()))?;
             (S::from_code(&p), entry_fn::<B>(last))
         };
         Ok(Entry {
@@ -207,7 +209,9 @@ impl Kernels {
         r.as_ref().map_err(Clone::clone)
     }
     fn interval_k(&self) -> Result<&Entry<(), BoxBatchFn>, JitError> {
-        let r = self.interval.get_or_init(|| self.compile_kind(Kind::Interval));
+        let r = self
+            .interval
+            .get_or_init(|| self.compile_kind(Kind::Interval));
         r.as_ref().map_err(Clone::clone)
     }
     fn grad_k(&self) -> Result<&Entry<(), BoxBatchFn>, JitError> {
@@ -215,7 +219,9 @@ impl Kernels {
         r.as_ref().map_err(Clone::clone)
     }
     fn pgrad_k(&self) -> Result<&Entry<(), PointGradBatchFn>, JitError> {
-        let r = self.pgrad.get_or_init(|| self.compile_kind(Kind::PointGrad));
+        let r = self
+            .pgrad
+            .get_or_init(|| self.compile_kind(Kind::PointGrad));
         r.as_ref().map_err(Clone::clone)
     }
 

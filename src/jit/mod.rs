@@ -401,4 +401,3 @@ impl Env<'_> {
         (g, Some(d))
     }
 }
-

@@ -39,7 +39,9 @@ pub const MXCSR_DEFAULT: u32 = 0x1F80;
 pub const MXCSR_UP: u32 = 0x5F80;
 
 #[cfg(not(target_arch = "x86_64"))]
-compile_error!("isoc's interval kernels switch the x86-64 MXCSR rounding mode; only x86-64 is supported");
+compile_error!(
+    "isoc's interval kernels switch the x86-64 MXCSR rounding mode; only x86-64 is supported"
+);
 
 /// Saves the caller's MXCSR at `save` (4 bytes) and switches to
 /// [`MXCSR_UP`].

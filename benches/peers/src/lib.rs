@@ -15,13 +15,16 @@ use isoc::ir::{BinOp, Op, Program, UnOp, Var};
 use std::collections::HashMap;
 
 /// The corpus formulas compared (relative to `benches/peers/`).
-pub const CORPUS: [&str; 6] = [
+pub const CORPUS: [&str; 9] = [
     "heart",
     "torus",
     "twotorus",
     "chair_mid",
     "smile",
     "cyclide",
+    "chebyshev",
+    "decocube",
+    "chair_off",
 ];
 
 /// Path of a corpus file, found from this crate's manifest directory.
