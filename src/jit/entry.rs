@@ -121,8 +121,8 @@ fn emit_box_batch(env: &mut Env, prog: &ir::Program, kind: Kind, params: &[Value
         let out_off = env.b.ins().imul_imm_s(i, stride);
         let oa = env.b.ins().iadd(params[1], out_off);
         let input = [0, 1, 2, 3].map(|k| {
-            let iv = env.read_iv(ia, 16 * k);
-            interval::normalize(env, iv)
+            let lo_hi = env.read_lo_hi(ia, 16 * k);
+            interval::normalize(env, lo_hi)
         });
         let d = store_box_result(env, prog, kind, input, oa);
         let da = env.b.ins().iadd(params[2], i);
@@ -144,7 +144,6 @@ fn store_box_result(
     input: [(interval::Iv, interval::Flag); 4],
     out: Value,
 ) -> Value {
-    let f = Env::flags();
     let (ivs, d): (Vec<interval::Iv>, Value) = if kind == Kind::Interval {
         let (iv, d) = interval::lower(env, prog, input);
         (vec![iv], d)
@@ -152,9 +151,8 @@ fn store_box_result(
         let (g, d) = grad::lower(env, prog, input);
         (g.to_vec(), d)
     };
-    for (k, (lo, hi)) in ivs.into_iter().enumerate() {
-        env.b.ins().store(f, lo, out, (16 * k) as i32);
-        env.b.ins().store(f, hi, out, (16 * k + 8) as i32);
+    for (k, iv) in ivs.into_iter().enumerate() {
+        env.store_iv(out, (16 * k) as i32, iv);
     }
     d
 }

@@ -49,23 +49,23 @@ struct G {
     k: Option<interval::Konst>,
 }
 
-/// The component as an interval (`[0, 0]`, `[1, 1]` from the given SSA
-/// constants).
-fn iv_of(d: D, zero: Value, one: Value) -> Iv {
+/// The component as an interval in the kernel's `(−lo, hi)` form
+/// (`[0, 0]` and `[1, 1]` from the SSA constants `0` and `(−1, 1)`).
+fn iv_of(d: D, zero: Value, one: Iv) -> Iv {
     match d {
         D::Zero => (zero, zero),
-        D::One => (one, one),
+        D::One => one,
         D::V(iv) => iv,
     }
 }
 
 /// `a ± b` on components. `[0,0] + b = b` and `b − [0,0] = b` exactly; a
 /// known `1` is materialised.
-fn d_add(env: &mut Env, sub: bool, a: D, b: D, zero: Value, one: Value) -> D {
+fn d_add(env: &mut Env, sub: bool, a: D, b: D, zero: Value, one: Iv) -> D {
     match (a, b) {
         (x, D::Zero) => x,
         (D::Zero, y) if !sub => y,
-        (D::Zero, y) => D::V(neg(env, iv_of(y, zero, one))),
+        (D::Zero, y) => D::V(neg(iv_of(y, zero, one))),
         (x, y) => {
             let op = if sub { BinOp::Sub } else { BinOp::Add };
             D::V(interval::binary(env, op, iv_of(x, zero, one), iv_of(y, zero, one)).0)
@@ -84,8 +84,9 @@ fn d_scale(env: &mut Env, x: Iv, xk: Option<interval::Konst>, d: D) -> D {
     }
 }
 
-fn neg(env: &mut Env, (l, h): Iv) -> Iv {
-    (env.b.ins().fneg(h), env.b.ins().fneg(l))
+/// `−[lo, hi] = [−hi, −lo]`: in `(−lo, hi)` form, a swap.
+fn neg((n, h): Iv) -> Iv {
+    (h, n)
 }
 
 /// Emits the body; returns the output tuple and the decoration (i8).
@@ -93,7 +94,10 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
     let flags_in: [Flag; 4] = input.map(|(_, f)| f);
     let input: [Iv; 4] = input.map(|(iv, _)| iv);
     let zero = env.b.ins().f64const(0.0);
-    let one = env.b.ins().f64const(1.0);
+    let one = (
+        env.b.ins().f64const(-1.0),
+        env.b.ins().f64const(1.0),
+    );
     let full = |g: G| -> Dual {
         [
             g.v,
@@ -138,10 +142,10 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
             }
             Op::Unary(UnOp::Neg, a) => {
                 let a = vals[a.index()].0;
-                let v = neg(env, a.v);
+                let v = neg(a.v);
                 let d = a.d.map(|c| match c {
                     D::Zero => D::Zero,
-                    c => D::V(neg(env, iv_of(c, zero, one))),
+                    c => D::V(neg(iv_of(c, zero, one))),
                 });
                 (G { v, d, k: None }, None)
             }
@@ -149,9 +153,9 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
                 let a = vals[a.index()].0;
                 let (f, _) = interval::unary(env, UnOp::Square, a.v);
                 // d(a²) = (2a)·da; doubling is exact but for overflow,
-                // which must go outward: the lower bound rounded down.
+                // which goes outward: both `(−lo, hi)` halves round up.
                 let two_a = (
-                    rounding::add_down(&mut env.b, a.v.0, a.v.0),
+                    rounding::add_up(&mut env.b, a.v.0, a.v.0),
                     rounding::add_up(&mut env.b, a.v.1, a.v.1),
                 );
                 let d = a.d.map(|c| d_scale(env, two_a, None, c));
@@ -185,12 +189,15 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
                     a.d
                 } else {
                     let p = interval::powi(env, a.v, (n - 1) as u64);
-                    let nc = env.b.ins().f64const(n as f64);
+                    let c = (
+                        env.b.ins().f64const(-(n as f64)),
+                        env.b.ins().f64const(n as f64),
+                    );
                     let k = interval::Konst {
                         lo: n as f64,
                         hi: n as f64,
                     };
-                    let f = interval::mul_by_konst(env, p, (nc, nc), k);
+                    let f = interval::mul_by_konst(env, p, c, k);
                     a.d.map(|c| d_scale(env, f, None, c))
                 };
                 (G { v, d, k: None }, None)

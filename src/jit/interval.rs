@@ -1,20 +1,26 @@
 //! Lowering of a [`Program`] to the interval body.
 //!
-//! Each IR value becomes two f64 SSA values `(lo, hi)`, plus one `i8`
-//! accumulator for the decoration "defined and continuous on the whole box"
-//! (the AND of every op's flag).
-//!
-//! Inline, outward rounded with [`super::rounding`] (the kernel runs in
-//! round-toward-+∞ mode; a lower bound is `RD(x) = −RU(−x)`):
+//! Each IR value becomes two f64 SSA values `(−lo, hi)` — the lower bound
+//! is held negated, so that with the kernel in round-toward-+∞ mode
+//! ([`super::rounding`]) *both* bounds of a sum are one rounded-up
+//! addition, `−(lo_a + lo_b) = (−lo_a) + (−lo_b)`, and negation is a swap
+//! — plus one `i8` accumulator for the decoration "defined and continuous
+//! on the whole box" (the AND of every op's flag). Memory (inputs, outputs,
+//! helper arguments) holds `[lo, hi]`; the conversion is one `fneg` at the
+//! boundary ([`Env::load_iv`], [`Env::store_iv`]). Below, `n = −lo`, `h =
+//! hi`, and every operation rounds up:
 //!
 //! | op | rule |
 //! |---|---|
-//! | `neg`, `min`, `max` | exact bound arithmetic |
-//! | `abs` | `[max(0, lo, −hi), max(−lo, hi)]`, exact |
-//! | `add`, `sub` | `[RD(al + bl), RU(ah + bh)]`, `[RD(al − bh), RU(ah − bl)]` |
-//! | `mul` | `[−max RU(−x·y), max RU(x·y)]` over the four bound pairs (a NaN product `0·∞` counts as 0) |
-//! | `square` | `[RD(mig²), RU(mag²)]` |
-//! | `sqrt` | `[RD(√max(lo,0)), RU(√hi)]`, empty when `hi < 0`; defined iff `lo ≥ 0` |
+//! | `neg` | `(h, n)` |
+//! | `min`, `max` | `(max n, min h)`, `(min n, max h)`, exact |
+//! | `abs` | `(min(n, h, 0), max(n, h))` = `(−mig, mag)`, exact |
+//! | `add` | `(n_a + n_b, h_a + h_b)` |
+//! | `sub` | `(n_a + h_b, h_a + n_b)` |
+//! | `mul` | `(max RU(−x·y), max RU(x·y))` over the four bound pairs (a NaN product `0·∞` counts as 0) |
+//! | `mul` by a constant of known sign | one product per bound ([`mul_by_konst`]) |
+//! | `square` | `(RU(−mig·mig), RU(mag²))` |
+//! | `sqrt` | `(−RD(√max(lo,0)), RU(√hi))`, empty when `hi < 0`; defined iff `lo ≥ 0` |
 //! | `powi a n`, `1 ≤ n ≤ 8` | exact monotone rules on `mig`/`mag` (even `n`) or the signed bounds (odd `n`), each product of the repeated squaring rounded in its direction |
 //!
 //! Everything else (`div`, other `powi`, transcendentals, `atan2`,
@@ -28,7 +34,7 @@ use super::{Env, rounding};
 use crate::interval::Interval;
 use crate::ir::{BinOp, Op, Program, UnOp};
 
-/// An interval as two SSA values.
+/// An interval as two SSA values `(−lo, hi)` (see the module doc).
 pub(super) type Iv = (Value, Value);
 
 /// Emits the body; returns the output interval and the decoration (i8).
@@ -78,23 +84,25 @@ pub(super) fn flag_value(env: &mut Env, f: Flag) -> Value {
     }
 }
 
-/// Normalises an input interval as [`crate::interval::Interval::normalize`]
-/// does: a NaN bound gives the entire line, undefined; `lo = +∞` becomes
-/// `MAX`, `hi = −∞` becomes `−MAX`.
-pub(super) fn normalize(env: &mut Env, (lo, hi): Iv) -> (Iv, Flag) {
+/// Normalises an input interval `[lo, hi]` (as read from memory) as
+/// [`crate::interval::Interval::normalize`] does — a NaN bound gives the
+/// entire line, undefined; `lo = +∞` becomes `MAX`, `hi = −∞` becomes
+/// `−MAX` — and returns it in `(−lo, hi)` form.
+pub(super) fn normalize(env: &mut Env, (lo, hi): (Value, Value)) -> (Iv, Flag) {
     let b = &mut env.b;
     let ok = b.ins().fcmp(FloatCC::Ordered, lo, hi);
     let pinf = b.ins().f64const(f64::INFINITY);
     let ninf = b.ins().f64const(f64::NEG_INFINITY);
-    let max = b.ins().f64const(f64::MAX);
     let nmax = b.ins().f64const(-f64::MAX);
     let lo_inf = b.ins().fcmp(FloatCC::Equal, lo, pinf);
     let hi_inf = b.ins().fcmp(FloatCC::Equal, hi, ninf);
-    let l = b.ins().select(lo_inf, max, lo);
+    let nlo = b.ins().fneg(lo);
+    // −lo: −MAX for lo = +∞, +∞ (lo = −∞) when not ordered.
+    let n = b.ins().select(lo_inf, nmax, nlo);
     let h = b.ins().select(hi_inf, nmax, hi);
-    let l = b.ins().select(ok, l, ninf);
+    let n = b.ins().select(ok, n, pinf);
     let h = b.ins().select(ok, h, pinf);
-    ((l, h), Some(ok))
+    ((n, h), Some(ok))
 }
 
 /// One op: its interval and, when the op can be undefined, its flag.
@@ -131,39 +139,39 @@ pub(super) fn lower_op(
     }
 }
 
-pub(super) fn unary(env: &mut Env, u: UnOp, (lo, hi): Iv) -> (Iv, Option<Value>) {
+pub(super) fn unary(env: &mut Env, u: UnOp, (n, h): Iv) -> (Iv, Option<Value>) {
     match u {
-        UnOp::Neg => {
-            let b = &mut env.b;
-            ((b.ins().fneg(hi), b.ins().fneg(lo)), None)
-        }
+        UnOp::Neg => ((h, n), None),
         UnOp::Abs => {
-            let (mig, mag) = mig_mag(env, (lo, hi));
-            ((mig, mag), None)
+            let (nmig, mag) = nmig_mag(env, (n, h));
+            ((nmig, mag), None)
         }
         UnOp::Square => {
-            let (mig, mag) = mig_mag(env, (lo, hi));
+            let (nmig, mag) = nmig_mag(env, (n, h));
             let b = &mut env.b;
-            let l = rounding::mul_down(b, mig, mig);
-            let h = rounding::mul_up(b, mag, mag);
-            ((l, h), None)
+            let mig = b.ins().fneg(nmig);
+            // RU(−mig·mig) = −RD(mig²).
+            let nl = b.ins().fmul(nmig, mig);
+            let hh = rounding::mul_up(b, mag, mag);
+            ((nl, hh), None)
         }
         UnOp::Sqrt => {
             let b = &mut env.b;
             let zero = b.ins().f64const(0.0);
+            let lo = b.ins().fneg(n);
             let defined = b.ins().fcmp(FloatCC::GreaterThanOrEqual, lo, zero);
             let l0 = b.ins().fmax(lo, zero);
             let l = rounding::sqrt_down(b, l0);
-            let h = rounding::sqrt_up(b, hi);
+            let nl = b.ins().fneg(l);
+            let hh = rounding::sqrt_up(b, h);
             // hi < 0: nowhere defined, the empty interval [+∞, −∞].
-            let empty = b.ins().fcmp(FloatCC::LessThan, hi, zero);
-            let pinf = b.ins().f64const(f64::INFINITY);
+            let empty = b.ins().fcmp(FloatCC::LessThan, h, zero);
             let ninf = b.ins().f64const(f64::NEG_INFINITY);
-            let l = b.ins().select(empty, pinf, l);
-            let h = b.ins().select(empty, ninf, h);
-            ((l, h), Some(defined))
+            let nl = b.ins().select(empty, ninf, nl);
+            let hh = b.ins().select(empty, ninf, hh);
+            ((nl, hh), Some(defined))
         }
-        _ => env.call_iv_unary(u, (lo, hi)),
+        _ => env.call_iv_unary(u, (n, h)),
     }
 }
 
@@ -172,40 +180,42 @@ pub(super) fn binary(env: &mut Env, op: BinOp, a: Iv, bv: Iv) -> (Iv, Option<Val
     match op {
         BinOp::Add => (
             (
-                rounding::add_down(b, a.0, bv.0),
+                rounding::add_up(b, a.0, bv.0),
                 rounding::add_up(b, a.1, bv.1),
             ),
             None,
         ),
         BinOp::Sub => (
             (
-                rounding::sub_down(b, a.0, bv.1),
-                rounding::sub_up(b, a.1, bv.0),
+                rounding::add_up(b, a.0, bv.1),
+                rounding::add_up(b, a.1, bv.0),
             ),
             None,
         ),
         BinOp::Mul => (mul(env, a, bv), None),
-        BinOp::Min => ((b.ins().fmin(a.0, bv.0), b.ins().fmin(a.1, bv.1)), None),
-        BinOp::Max => ((b.ins().fmax(a.0, bv.0), b.ins().fmax(a.1, bv.1)), None),
+        BinOp::Min => ((b.ins().fmax(a.0, bv.0), b.ins().fmin(a.1, bv.1)), None),
+        BinOp::Max => ((b.ins().fmin(a.0, bv.0), b.ins().fmax(a.1, bv.1)), None),
         BinOp::Div | BinOp::Atan2 | BinOp::Pow => env.call_iv_binary(op, a, bv),
     }
 }
 
-/// `(mig, mag)`: the smallest and largest `|x|` on `[lo, hi]`, exact.
-fn mig_mag(env: &mut Env, (lo, hi): Iv) -> Iv {
+/// `(−mig, mag)`: the smallest and largest `|x|` on `[lo, hi]` (`mig` held
+/// negated), exact: `mig = max(lo, −hi, 0)`, so `−mig = min(n, h, 0)`;
+/// `mag = max(−lo, hi) = max(n, h)`.
+fn nmig_mag(env: &mut Env, (n, h): Iv) -> Iv {
     let b = &mut env.b;
     let zero = b.ins().f64const(0.0);
-    let nlo = b.ins().fneg(lo);
-    let nhi = b.ins().fneg(hi);
-    let m = b.ins().fmax(lo, nhi);
-    let mig = b.ins().fmax(m, zero);
-    let mag = b.ins().fmax(nlo, hi);
-    (mig, mag)
+    let m = b.ins().fmin(n, h);
+    let nmig = b.ins().fmin(m, zero);
+    let mag = b.ins().fmax(n, h);
+    (nmig, mag)
 }
 
 /// Interval product, outward rounded: the largest of the four products
-/// rounded up is the upper bound; the lower bound is `−max RU(−x·y)` over
-/// the same four.
+/// rounded up is the upper bound, the largest of the four negated products
+/// rounded up is `−lo`. With `l = −n` the lower bounds:
+/// `x·y` over `{l_a, h_a} × {l_c, h_c}` is `{n_a·n_c, l_a·h_c, h_a·l_c,
+/// h_a·h_c}` and `−x·y` is `{n_a·l_c, n_a·h_c, h_a·n_c, (−h_a)·h_c}`.
 ///
 /// A NaN product (`0·∞`) stands for 0 in interval arithmetic. The maxima
 /// use the one-instruction "pseudo-max" [`pmax`], which skips a NaN first
@@ -219,7 +229,9 @@ fn mig_mag(env: &mut Env, (lo, hi): Iv) -> Iv {
 pub(super) fn mul(env: &mut Env, a: Iv, c: Iv) -> Iv {
     let b = &mut env.b;
     let zero = b.ins().f64const(0.0);
-    let na = (b.ins().fneg(a.0), b.ins().fneg(a.1));
+    let la = b.ins().fneg(a.0);
+    let lc = b.ins().fneg(c.0);
+    let nha = b.ins().fneg(a.1);
     let seed = |b: &mut cranelift_frontend::FunctionBuilder, x: Value, y: Value| {
         let p = b.ins().fmul(x, y);
         let nan = b.ins().fcmp(FloatCC::Unordered, p, p);
@@ -232,11 +244,11 @@ pub(super) fn mul(env: &mut Env, a: Iv, c: Iv) -> Iv {
         }
         acc
     };
-    let hi0 = seed(b, a.1, c.1);
-    let hi = chain(b, hi0, [(a.0, c.0), (a.0, c.1), (a.1, c.0)]);
-    let nlo0 = seed(b, na.1, c.1);
-    let nlo = chain(b, nlo0, [(na.0, c.0), (na.0, c.1), (na.1, c.0)]);
-    (b.ins().fneg(nlo), hi)
+    let h0 = seed(b, a.1, c.1);
+    let h = chain(b, h0, [(a.0, c.0), (la, c.1), (a.1, lc)]);
+    let n0 = seed(b, nha, c.1);
+    let n = chain(b, n0, [(a.0, lc), (a.0, c.1), (a.1, c.0)]);
+    (n, h)
 }
 
 /// A constant's enclosure `[lo, hi]` as known at compile time (the
@@ -271,35 +283,47 @@ pub(super) fn mul_known(env: &mut Env, x: Iv, kx: Option<Konst>, y: Iv, ky: Opti
     }
 }
 
-/// `x · c` for a constant `c ⊆ [k.lo, k.hi]` of known sign (`c` the SSA
-/// values of those bounds). `c·x` is monotone in `x` with the sign of `c`,
-/// so each bound is one product, with the factor bound chosen by the sign
-/// of the `x` bound when `c` is not a point; no product is `0·∞` (`c` is
-/// finite and non-zero).
+/// `x · c` for a constant `c ⊆ [k.lo, k.hi]` of known sign (`c` its SSA
+/// `(−lo, hi)`). `c·x` is monotone in `x` with the sign of `c`, so each
+/// bound is one product of an `x` bound and a bound of `|c|` — chosen by
+/// the sign of that `x` bound when `c` is not a point; no product is
+/// `0·∞` (`c` is finite and non-zero). With `|c| ∈ [s, g]`:
+///
+/// - `c > 0`: `hi = RU(|c|·h_x)` (`g` when `h_x ≥ 0`, else `s`), `−lo =
+///   RU(|c|·n_x)` (`s` when `n_x ≤ 0`, i.e. `lo ≥ 0`, else `g`);
+/// - `c < 0`: `hi = RU(|c|·n_x)` (`g` when `n_x ≥ 0`, else `s`), `−lo =
+///   RU(|c|·h_x)` (`g` when `h_x ≥ 0`, else `s`).
 pub(super) fn mul_by_konst(env: &mut Env, x: Iv, c: Iv, k: Konst) -> Iv {
     let b = &mut env.b;
     let point = k.lo == k.hi;
-    // The factor bound to use against an `x` bound `v`: `big` when `v ≥ 0`,
-    // `small` otherwise.
-    let pick = |b: &mut cranelift_frontend::FunctionBuilder, v: Value, big: Value, small: Value| {
+    let pos = k.lo > 0.0;
+    // |c| ∈ [s, g]: for c > 0, [lo, hi] = [−n_c, h_c]; for c < 0,
+    // [−hi, −lo] = [−h_c, n_c].
+    let (s, g) = match (pos, point) {
+        (true, true) => (c.1, c.1),
+        (false, true) => (c.0, c.0),
+        (true, false) => (b.ins().fneg(c.0), c.1),
+        (false, false) => (b.ins().fneg(c.1), c.0),
+    };
+    let zero = b.ins().f64const(0.0);
+    // `g` when `v cc 0`, else `s`.
+    let pick = |b: &mut cranelift_frontend::FunctionBuilder, v: Value, cc: FloatCC| {
         if point {
-            big
+            g
         } else {
-            let zero = b.ins().f64const(0.0);
-            let nonneg = b.ins().fcmp(FloatCC::GreaterThanOrEqual, v, zero);
-            b.ins().select(nonneg, big, small)
+            let t = b.ins().fcmp(cc, v, zero);
+            b.ins().select(t, g, s)
         }
     };
-    if k.lo > 0.0 {
-        // Increasing: hi from x.hi, lo from x.lo.
-        let ch = pick(b, x.1, c.1, c.0);
-        let cl = pick(b, x.0, c.0, c.1);
-        (rounding::mul_down(b, cl, x.0), rounding::mul_up(b, ch, x.1))
+    use FloatCC::{GreaterThan as Gt, GreaterThanOrEqual as Ge};
+    if pos {
+        let mh = pick(b, x.1, Ge);
+        let mn = pick(b, x.0, Gt);
+        (b.ins().fmul(mn, x.0), b.ins().fmul(mh, x.1))
     } else {
-        // Decreasing: hi from x.lo (larger |c| when x.lo ≤ 0), lo from x.hi.
-        let ch = pick(b, x.0, c.1, c.0);
-        let cl = pick(b, x.1, c.0, c.1);
-        (rounding::mul_down(b, cl, x.1), rounding::mul_up(b, ch, x.0))
+        let mh = pick(b, x.0, Ge);
+        let mn = pick(b, x.1, Ge);
+        (b.ins().fmul(mn, x.1), b.ins().fmul(mh, x.0))
     }
 }
 
@@ -347,30 +371,34 @@ fn pow_bound(env: &mut Env, x: Value, mut n: u64, up: bool) -> Value {
 pub(super) const INLINE_POWI_MAX: i64 = 8;
 
 /// `[lo, hi]^n`, `n ≥ 1`.
-pub(super) fn powi(env: &mut Env, (lo, hi): Iv, n: u64) -> Iv {
-    if n == 1 {
-        return (lo, hi);
+pub(super) fn powi(env: &mut Env, (n, h): Iv, k: u64) -> Iv {
+    if k == 1 {
+        return (n, h);
     }
-    if n.is_multiple_of(2) {
-        let (mig, mag) = mig_mag(env, (lo, hi));
-        let l = pow_bound(env, mig, n, false);
-        let h = pow_bound(env, mag, n, true);
-        return (l, h);
+    if k.is_multiple_of(2) {
+        let (nmig, mag) = nmig_mag(env, (n, h));
+        let mig = env.b.ins().fneg(nmig);
+        let l = pow_bound(env, mig, k, false);
+        let nl = env.b.ins().fneg(l);
+        let hh = pow_bound(env, mag, k, true);
+        return (nl, hh);
     }
-    // Odd: monotone increasing; x^n = sign(x)·|x|^n.
-    let alo = env.b.ins().fabs(lo);
-    let ahi = env.b.ins().fabs(hi);
-    let lo_dn = pow_bound(env, alo, n, false);
-    let lo_up = pow_bound(env, alo, n, true);
-    let hi_dn = pow_bound(env, ahi, n, false);
-    let hi_up = pow_bound(env, ahi, n, true);
+    // Odd: monotone increasing; x^k = sign(x)·|x|^k.
+    let alo = env.b.ins().fabs(n);
+    let ahi = env.b.ins().fabs(h);
+    let lo_dn = pow_bound(env, alo, k, false);
+    let lo_up = pow_bound(env, alo, k, true);
+    let hi_dn = pow_bound(env, ahi, k, false);
+    let hi_up = pow_bound(env, ahi, k, true);
     let b = &mut env.b;
     let zero = b.ins().f64const(0.0);
-    let lo_neg = b.ins().fcmp(FloatCC::LessThan, lo, zero);
-    let hi_neg = b.ins().fcmp(FloatCC::LessThan, hi, zero);
-    let nlo = b.ins().fneg(lo_up);
-    let nhi = b.ins().fneg(hi_dn);
-    let l = b.ins().select(lo_neg, nlo, lo_dn);
-    let h = b.ins().select(hi_neg, nhi, hi_up);
-    (l, h)
+    // lo < 0 ⇔ n > 0: lo = −|lo|^k, so −lo = RU(|lo|^k); else −lo =
+    // −RD(lo^k).
+    let lo_neg = b.ins().fcmp(FloatCC::GreaterThan, n, zero);
+    let hi_neg = b.ins().fcmp(FloatCC::LessThan, h, zero);
+    let nlo_dn = b.ins().fneg(lo_dn);
+    let nhi_dn = b.ins().fneg(hi_dn);
+    let nl = b.ins().select(lo_neg, lo_up, nlo_dn);
+    let hh = b.ins().select(hi_neg, nhi_dn, hi_up);
+    (nl, hh)
 }

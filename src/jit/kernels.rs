@@ -132,9 +132,10 @@ impl Kernels {
             match op {
                 Op::Const(c) => {
                     let (iv, _) = Interval::new(c.lo, c.hi).normalize();
-                    rec.copy_from_slice(&[c.value, iv.lo, iv.hi]);
+                    // The interval kernels hold `(−lo, hi)`.
+                    rec.copy_from_slice(&[c.value, -iv.lo, iv.hi]);
                 }
-                Op::Powi(..) => rec.copy_from_slice(&[1.0; 3]),
+                Op::Powi(..) => rec.copy_from_slice(&[1.0, -1.0, 1.0]),
                 _ => {}
             }
         }

@@ -78,7 +78,7 @@
 //!
 //! # Constants
 //!
-//! Every [`ir::Const`] is stored in a constant pool (`[value, lo, hi]` per
+//! Every [`ir::Const`] is stored in a constant pool (`[value, −lo, hi]` per
 //! instruction) that the kernels *load* from: Cranelift never sees two
 //! float constants meeting in one operation, so its mid-end cannot fold
 //! them in round-to-nearest behind the interval kernels' back. The point
@@ -265,7 +265,7 @@ impl Env<'_> {
         MemFlagsData::trusted()
     }
 
-    /// Entry `k` (0 value, 1 lo, 2 hi) of instruction `i`'s pool record.
+    /// Entry `k` (0 value, 1 −lo, 2 hi) of instruction `i`'s pool record.
     fn pool_load(&mut self, i: usize, k: usize) -> Value {
         let off = ((i * POOL_STRIDE + k) * 8) as i64;
         let addr = self.b.ins().iadd_imm_s(self.pool, off);
@@ -317,7 +317,8 @@ impl Env<'_> {
         self.b.ins().stack_addr(self.ptr, slot, 0)
     }
 
-    fn read_iv(&mut self, p: Value, off: i32) -> interval::Iv {
+    /// `[lo, hi]` as stored in memory at `p + off`.
+    fn read_lo_hi(&mut self, p: Value, off: i32) -> (Value, Value) {
         let f = Self::flags();
         (
             self.b.ins().load(types::F64, f, p, off),
@@ -325,11 +326,27 @@ impl Env<'_> {
         )
     }
 
+    /// The interval stored as `[lo, hi]` at `p + off`, in the kernels'
+    /// `(−lo, hi)` form ([`interval::Iv`]).
+    fn load_iv(&mut self, p: Value, off: i32) -> interval::Iv {
+        let (lo, hi) = self.read_lo_hi(p, off);
+        (self.b.ins().fneg(lo), hi)
+    }
+
+    /// Stores `(−lo, hi)` as `[lo, hi]` at `p + off`.
+    fn store_iv(&mut self, p: Value, off: i32, (n, hi): interval::Iv) {
+        let f = Self::flags();
+        let lo = self.b.ins().fneg(n);
+        self.b.ins().store(f, lo, p, off);
+        self.b.ins().store(f, hi, p, off + 8);
+    }
+
     fn call_iv_unary(&mut self, u: UnOp, a: interval::Iv) -> (interval::Iv, Option<Value>) {
         let c = self.code(helpers::unop_code(u));
         let out = self.iv_out();
-        let d = self.call(Helper::IvUnary, &[c, a.0, a.1, out]);
-        (self.read_iv(out, 0), Some(d))
+        let lo = self.b.ins().fneg(a.0);
+        let d = self.call(Helper::IvUnary, &[c, lo, a.1, out]);
+        (self.load_iv(out, 0), Some(d))
     }
 
     fn call_iv_binary(
@@ -340,15 +357,18 @@ impl Env<'_> {
     ) -> (interval::Iv, Option<Value>) {
         let c = self.code(helpers::binop_code(op));
         let out = self.iv_out();
-        let d = self.call(Helper::IvBinary, &[c, a.0, a.1, b.0, b.1, out]);
-        (self.read_iv(out, 0), Some(d))
+        let alo = self.b.ins().fneg(a.0);
+        let blo = self.b.ins().fneg(b.0);
+        let d = self.call(Helper::IvBinary, &[c, alo, a.1, blo, b.1, out]);
+        (self.load_iv(out, 0), Some(d))
     }
 
     fn call_iv_powi(&mut self, a: interval::Iv, n: i64) -> (interval::Iv, Option<Value>) {
         let n = self.b.ins().iconst(types::I64, n);
         let out = self.iv_out();
-        let d = self.call(Helper::IvPowi, &[a.0, a.1, n, out]);
-        (self.read_iv(out, 0), Some(d))
+        let lo = self.b.ins().fneg(a.0);
+        let d = self.call(Helper::IvPowi, &[lo, a.1, n, out]);
+        (self.load_iv(out, 0), Some(d))
     }
 
     /// Calls the gradient helper: `code` below [`grad::GD_BINARY_BASE`] is
@@ -375,16 +395,13 @@ impl Env<'_> {
                 s
             }
         };
-        let f = Self::flags();
         let addr = [slots[0], slots[1], slots[2]].map(|s| self.b.ins().stack_addr(self.ptr, s, 0));
-        for (k, (lo, hi)) in a.iter().enumerate() {
-            self.b.ins().store(f, *lo, addr[0], (16 * k) as i32);
-            self.b.ins().store(f, *hi, addr[0], (16 * k + 8) as i32);
+        for (k, iv) in a.iter().enumerate() {
+            self.store_iv(addr[0], (16 * k) as i32, *iv);
         }
         if let Some(b) = b {
-            for (k, (lo, hi)) in b.iter().enumerate() {
-                self.b.ins().store(f, *lo, addr[1], (16 * k) as i32);
-                self.b.ins().store(f, *hi, addr[1], (16 * k + 8) as i32);
+            for (k, iv) in b.iter().enumerate() {
+                self.store_iv(addr[1], (16 * k) as i32, *iv);
             }
         }
         let d = if code >= grad::GD_BINARY_BASE {
@@ -397,7 +414,7 @@ impl Env<'_> {
         };
         let out = addr[2];
 
-        let g = [0, 1, 2, 3].map(|k| self.read_iv(out, 16 * k));
+        let g = [0, 1, 2, 3].map(|k| self.load_iv(out, 16 * k));
         (g, Some(d))
     }
 }
