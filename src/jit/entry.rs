@@ -115,14 +115,26 @@ fn emit_box_batch(env: &mut Env, prog: &ir::Program, kind: Kind, params: &[Value
     env.call_void(Helper::RmEnter, &[save]);
     let f = Env::flags();
     let stride = if kind == Kind::Interval { 16 } else { 64 };
+    let mut used = [false; 4];
+    for op in &prog.insts {
+        if let ir::Op::Var(v) = op {
+            used[v.index()] = true;
+        }
+    }
     batch_loop(env, params[3], |env, i| {
         let in_off = env.b.ins().imul_imm_s(i, 64);
         let ia = env.b.ins().iadd(params[0], in_off);
         let out_off = env.b.ins().imul_imm_s(i, stride);
         let oa = env.b.ins().iadd(params[1], out_off);
+        // Only the variables the program reads are loaded.
         let input = [0, 1, 2, 3].map(|k| {
-            let lo_hi = env.read_lo_hi(ia, 16 * k);
-            interval::normalize(env, lo_hi)
+            if used[k as usize] {
+                let lo_hi = env.read_lo_hi(ia, 16 * k);
+                interval::normalize(env, lo_hi)
+            } else {
+                let zero = env.b.ins().f64const(0.0);
+                ((zero, zero), None)
+            }
         });
         let d = store_box_result(env, prog, kind, input, oa);
         let da = env.b.ins().iadd(params[2], i);

@@ -92,14 +92,12 @@ pub(super) fn normalize(env: &mut Env, (lo, hi): (Value, Value)) -> (Iv, Flag) {
     let b = &mut env.b;
     let ok = b.ins().fcmp(FloatCC::Ordered, lo, hi);
     let pinf = b.ins().f64const(f64::INFINITY);
-    let ninf = b.ins().f64const(f64::NEG_INFINITY);
     let nmax = b.ins().f64const(-f64::MAX);
-    let lo_inf = b.ins().fcmp(FloatCC::Equal, lo, pinf);
-    let hi_inf = b.ins().fcmp(FloatCC::Equal, hi, ninf);
     let nlo = b.ins().fneg(lo);
-    // −lo: −MAX for lo = +∞, +∞ (lo = −∞) when not ordered.
-    let n = b.ins().select(lo_inf, nmax, nlo);
-    let h = b.ins().select(hi_inf, nmax, hi);
+    // −lo = −∞ (lo = +∞) and hi = −∞ become −MAX; NaN (not ordered)
+    // becomes +∞ on both sides, the entire line.
+    let n = pmax(b, nlo, nmax);
+    let h = pmax(b, hi, nmax);
     let n = b.ins().select(ok, n, pinf);
     let h = b.ins().select(ok, h, pinf);
     ((n, h), Some(ok))
@@ -202,13 +200,24 @@ pub(super) fn binary(env: &mut Env, op: BinOp, a: Iv, bv: Iv) -> (Iv, Option<Val
 /// `(−mig, mag)`: the smallest and largest `|x|` on `[lo, hi]` (`mig` held
 /// negated), exact: `mig = max(lo, −hi, 0)`, so `−mig = min(n, h, 0)`;
 /// `mag = max(−lo, hi) = max(n, h)`.
+///
+/// The minima and maxima are one-instruction pseudo-min/max: a NaN bound
+/// only comes from arithmetic on an empty interval (`[+∞, −∞]`, a value
+/// defined nowhere on the box, with its decoration false), whose result
+/// may then be any interval.
 fn nmig_mag(env: &mut Env, (n, h): Iv) -> Iv {
     let b = &mut env.b;
     let zero = b.ins().f64const(0.0);
-    let m = b.ins().fmin(n, h);
-    let nmig = b.ins().fmin(m, zero);
-    let mag = b.ins().fmax(n, h);
+    let m = pmin(b, n, h);
+    let nmig = pmin(b, m, zero);
+    let mag = pmax(b, n, h);
     (nmig, mag)
+}
+
+/// `p < acc ? p : acc` (one `minsd` on x86-64).
+fn pmin(b: &mut cranelift_frontend::FunctionBuilder, p: Value, acc: Value) -> Value {
+    let lt = b.ins().fcmp(FloatCC::LessThan, p, acc);
+    b.ins().select(lt, p, acc)
 }
 
 /// Interval product, outward rounded: the largest of the four products
