@@ -120,6 +120,32 @@ proptest! {
         }
     }
 
+    /// Products and square roots in the underflow range are as tight as
+    /// directed rounding: the exact product lies in `[lo, hi]` and in
+    /// neither `[lo⁺, hi]` nor `[lo, hi⁻]` (no bound can move inward).
+    #[test]
+    fn tiny_products_and_roots_are_exact_bounds(x in -1e6f64..1e6, y in -1e6f64..1e6,
+                                               sx in -560i32..-440, sy in -620i32..-500) {
+        let a = x * 2f64.powi(sx);
+        let b = y * 2f64.powi(sy);
+        prop_assume!(a != 0.0 && b != 0.0);
+        let exact = Dyadic::of(a).mul(Dyadic::of(b));
+        let (p, _) = interval::binary(BinOp::Mul, Interval::point(a), Interval::point(b));
+        prop_assert!(exact.within(p.lo, p.hi), "{a:e} * {b:e} ∉ {p:?}");
+        if p.lo != p.hi {
+            prop_assert!(!exact.within(p.lo.next_up(), p.hi), "{a:e} * {b:e}: lo of {p:?}");
+            prop_assert!(!exact.within(p.lo, p.hi.next_down()), "{a:e} * {b:e}: hi of {p:?}");
+        }
+        let t = a.abs() * 2f64.powi(-400);
+        if t > 0.0 {
+            let (r, _) = interval::unary(UnOp::Sqrt, Interval::point(t));
+            let (l, h) = (Dyadic::of(r.lo), Dyadic::of(r.hi));
+            let dt = Dyadic::of(t);
+            prop_assert!(l.mul(l).cmp(dt).is_le() && dt.cmp(h.mul(h)).is_le(), "√{t:e} ∉ {r:?}");
+            prop_assert!(r.hi <= r.lo.next_up(), "√{t:e}: {r:?} wider than one ulp");
+        }
+    }
+
     /// Transcendental bounds are strictly outside the correctly rounded
     /// value (the one-ulp step), except at the trivial exact points.
     #[test]

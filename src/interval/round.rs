@@ -23,7 +23,8 @@
 //! Oishi 2005; `fma(−q, b, a)` for the remainder of a division and
 //! `fma(−s, s, x)` for the residual of a square root, Boldo & Daumas 2003).
 //! The FMA-based ones are exact only when no underflow occurs, hence the
-//! [`SAFE`] threshold: below it we fall back to stepping outward.
+//! [`SAFE`] threshold: below it products and square roots are computed
+//! exactly by scaling (powers of two), quotients stepped outward.
 //!
 //! Infinite operands are bounds of unbounded intervals; a result that is
 //! infinite because an operand is infinite is "exact" (the limit), while an
@@ -119,9 +120,88 @@ pub fn mul(a: f64, b: f64, d: Dir) -> f64 {
         };
     }
     if p.abs() < SAFE {
-        return step_signed(p, d, (a < 0.0) != (b < 0.0));
+        return mul_tiny(a, b, d);
     }
     settle(p, a.mul_add(b, -p), d)
+}
+
+/// `x = m·2^e` with `1 ≤ |m| < 2` (finite, non-zero `x`), exactly.
+fn split(x: f64) -> (f64, i32) {
+    let (x, bias) = if x.abs() < f64::MIN_POSITIVE {
+        (x * pow2(64), 64)
+    } else {
+        (x, 0)
+    };
+    let bits = x.to_bits();
+    let e = ((bits >> 52) & 0x7ff) as i32 - 1023;
+    let m = f64::from_bits((bits & !(0x7ff << 52)) | (1023 << 52));
+    (m, e - bias)
+}
+
+/// `2^k` for `−1074 ≤ k ≤ 1023` (subnormal powers included).
+fn pow2(k: i32) -> f64 {
+    if k >= -1022 {
+        f64::from_bits(((k + 1023) as u64) << 52)
+    } else {
+        f64::from_bits(1 << (k + 1074))
+    }
+}
+
+/// `x·2^k` for `k ≥ 0`, exact while no overflow (powers of two at most
+/// `2^1000` a step, each product exact since the result only grows).
+fn scale_up(mut x: f64, mut k: i32) -> f64 {
+    while k > 1000 {
+        x *= pow2(1000);
+        k -= 1000;
+    }
+    x * pow2(k)
+}
+
+/// Bound of `a·b` (finite, non-zero factors) whose round-to-nearest value
+/// is below [`SAFE`] in magnitude, where `fma(a, b, −p)` may underflow:
+/// exact by scaling. With `a = m_a·2^e_a`, `b = m_b·2^e_b`, the exact
+/// product is `(q + e)·2^E` for `q = RN(m_a·m_b)`, `e = fma(m_a, m_b, −q)`
+/// (both exact: `|q| ∈ [1, 4)`), `E = e_a + e_b`. The candidate `c =
+/// RN(q·2^E)` is computed with one rounding (`q·2^-1000` is exact and
+/// normal); `c'= c·2^-E` is exact, and by Sterbenz `δ = c' − q` too (`c'`
+/// lies within a factor 2 of `q`, or `c = 0`), so the sign of `δ − e` is
+/// the sign of `c − a·b`. Then `c` is moved one step if it is on the wrong
+/// side — the correctly rounded directed bound.
+fn mul_tiny(a: f64, b: f64, d: Dir) -> f64 {
+    let negative = (a < 0.0) != (b < 0.0);
+    let (ma, ea) = split(a);
+    let (mb, eb) = split(b);
+    let q = ma * mb;
+    let e = ma.mul_add(mb, -q);
+    let big_e = ea + eb;
+    // |a·b| < 2^(E+2) ≤ 2^-1075 rounds to 0 (or the smallest subnormal).
+    let c = if big_e + 2 <= -1075 {
+        0.0
+    } else if big_e >= -1022 {
+        q * pow2(big_e)
+    } else {
+        (q * pow2(-1000)) * pow2(big_e + 1000)
+    };
+    if c == 0.0 {
+        // |a·b| ≤ 2^-1075 and non-zero: between 0 and the smallest
+        // subnormal of its sign.
+        let tiny = if negative { -pow2(-1074) } else { pow2(-1074) };
+        return match (d, negative) {
+            (Dir::Up, false) | (Dir::Down, true) => tiny,
+            _ => 0.0,
+        };
+    }
+    let delta = scale_up(c, -big_e) - q;
+    let s = delta - e;
+    if s == 0.0 {
+        return c;
+    }
+    // s > 0: c is above the exact product.
+    match d {
+        Dir::Up if s < 0.0 => c.next_up(),
+        Dir::Down if s > 0.0 => c.next_down(),
+        _ => c,
+    }
 }
 
 /// Bound of `a / b` for `b ≠ 0` (callers exclude zero divisors and `∞/∞`).
@@ -159,7 +239,9 @@ pub fn sqrt(x: f64, d: Dir) -> f64 {
         return s;
     }
     if x < SAFE {
-        return step(s, d).max(0.0);
+        // √x = √(x·2^600)·2^-300, both scalings exact (x·2^600 is normal
+        // and well above SAFE, the root of a float ≥ 2^-1074 is normal).
+        return sqrt(x * pow2(600), d) * pow2(-300);
     }
     // x − s² exactly; positive means √x > s.
     settle(s, (-s).mul_add(s, x), d)
@@ -210,11 +292,18 @@ mod tests {
         assert_eq!(mul(1e300, 1e300, Dir::Up), f64::INFINITY);
         assert_eq!(mul(0.0, f64::INFINITY, Dir::Up), 0.0);
         assert_eq!(add(f64::MAX, f64::MAX, Dir::Down), f64::MAX);
-        // Underflow: bracketed, without crossing zero.
+        // Underflow: bracketed, without crossing zero, as tight as
+        // directed rounding.
         assert_eq!(mul(1e-200, 1e-200, Dir::Down), 0.0);
-        assert!(mul(1e-200, 1e-200, Dir::Up) > 0.0);
-        assert!(mul(-1e-200, 1e-200, Dir::Down) < 0.0);
+        assert_eq!(mul(1e-200, 1e-200, Dir::Up), f64::from_bits(1));
+        assert_eq!(mul(-1e-200, 1e-200, Dir::Down), -f64::from_bits(1));
         assert_eq!(mul(-1e-200, 1e-200, Dir::Up), 0.0);
+        assert_eq!(mul(f64::from_bits(1), 0.5, Dir::Up), f64::from_bits(1));
+        assert_eq!(mul(f64::from_bits(1), 0.5, Dir::Down), 0.0);
+        assert_eq!(mul(f64::from_bits(3), 0.5, Dir::Down), f64::from_bits(1));
+        assert_eq!(mul(f64::from_bits(3), 0.5, Dir::Up), f64::from_bits(2));
+        assert_eq!(mul(f64::from_bits(4), 0.5, Dir::Down), f64::from_bits(2));
+        assert_eq!(mul(f64::from_bits(4), 0.5, Dir::Up), f64::from_bits(2));
         assert_eq!(div(-5e-324, 3.0, Dir::Up), 0.0);
         assert!(div(-5e-324, 3.0, Dir::Down) < 0.0);
     }

@@ -21,7 +21,7 @@
 //! flag: `a^0` has derivative 0 whatever `a`'s derivatives were, so only
 //! `a`'s value flag reaches it.
 
-use cranelift_codegen::ir::{InstBuilder, Value};
+use cranelift_codegen::ir::{InstBuilder, Value, types};
 
 use super::interval::{self, Flag, Iv};
 use super::{Env, rounding};
@@ -87,6 +87,25 @@ fn d_scale(env: &mut Env, x: Iv, xk: Option<interval::Konst>, d: D) -> D {
 /// `−[lo, hi] = [−hi, −lo]`: in `(−lo, hi)` form, a swap.
 fn neg((n, h): Iv) -> Iv {
     (h, n)
+}
+
+/// `x / t` for `t = (−t_lo, t_hi)` with `pos` (i8) saying `t_lo > 0`:
+/// each bound one quotient rounded up, the divisor bound chosen by the
+/// sign of the dividend bound (`hi = h_x / (h_x ≥ 0 ? t_lo : t_hi)`,
+/// `−lo = n_x / (n_x ≤ 0 ? t_hi : t_lo)`); the whole line when `t` may
+/// reach 0.
+fn div_by_positive(env: &mut Env, x: Iv, t: Iv, t_lo: Value, pos: Value) -> Iv {
+    use cranelift_codegen::ir::condcodes::FloatCC;
+    let b = &mut env.b;
+    let zero = b.ins().f64const(0.0);
+    let h_nonneg = b.ins().fcmp(FloatCC::GreaterThanOrEqual, x.1, zero);
+    let yh = b.ins().select(h_nonneg, t_lo, t.1);
+    let h = b.ins().fdiv(x.1, yh);
+    let lo_nonneg = b.ins().fcmp(FloatCC::LessThanOrEqual, x.0, zero);
+    let yn = b.ins().select(lo_nonneg, t.1, t_lo);
+    let n = b.ins().fdiv(x.0, yn);
+    let inf = b.ins().f64const(f64::INFINITY);
+    (b.ins().select(pos, n, inf), b.ins().select(pos, h, inf))
 }
 
 /// Emits the body; returns the output tuple and the decoration (i8).
@@ -201,6 +220,30 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
                     a.d.map(|c| d_scale(env, f, None, c))
                 };
                 (G { v, d, k: None }, None)
+            }
+            Op::Unary(UnOp::Sqrt, a) => {
+                // d√a = da / (2√a), the reference's rule, inline: value
+                // flag "a ≥ 0 on the box", derivative flag "2√a > 0".
+                let a = vals[a.index()].0;
+                let (v, fv) = interval::unary(env, UnOp::Sqrt, a.v);
+                let t = (
+                    rounding::add_up(&mut env.b, v.0, v.0),
+                    rounding::add_up(&mut env.b, v.1, v.1),
+                );
+                let zero = env.b.ins().f64const(0.0);
+                let t_lo = env.b.ins().fneg(t.0);
+                let pos = env
+                    .b
+                    .ins()
+                    .fcmp(cranelift_codegen::ir::condcodes::FloatCC::GreaterThan, t_lo, zero);
+                let d = a.d.map(|c| match c {
+                    D::Zero => D::Zero,
+                    c => D::V(div_by_positive(env, iv_of(c, zero, one), t, t_lo, pos)),
+                });
+                let fv = fv.unwrap_or_else(|| env.b.ins().iconst(types::I8, 1));
+                let dv = env.b.ins().ishl_imm_u(pos, 1);
+                let r = env.b.ins().bor(fv, dv);
+                (G { v, d, k: None }, Some(r))
             }
             Op::Unary(u, a) => {
                 let (r, d) = env.call_gd(
