@@ -80,9 +80,10 @@ pub trait Num: Copy {
     /// Derivative of `min(a, b)` (`MIN`) or `max(a, b)`.
     fn select_d(is_min: bool, a: Self, b: Self, da: Self, db: Self) -> Self;
     /// The zero derivative of a piecewise-constant op whose value is `v`
-    /// (`floor`, `not`, `compare`, …): NaN where `v` is, and for intervals
-    /// carrying `v`'s flag (false across a jump).
-    fn flat_d(v: Self) -> Self;
+    /// and operand derivative `da` (`floor`, `not`, `compare`, …): NaN
+    /// where `v` or `da` is, and for intervals carrying both flags (false
+    /// across a jump; an operand's flag is kept, as the JIT's kernels do).
+    fn flat_d(v: Self, da: Self) -> Self;
     /// Derivative of `and(a, b)` (`is_and`) or `or(a, b)`: the chosen
     /// operand's, the hull of both (not defined) when the choice is open.
     fn logic_d(is_and: bool, a: Self, b: Self, da: Self, db: Self) -> Self;
@@ -132,8 +133,12 @@ impl Num for f64 {
             da
         }
     }
-    fn flat_d(v: Self) -> Self {
-        if v.is_nan() { f64::NAN } else { 0.0 }
+    fn flat_d(v: Self, da: Self) -> Self {
+        if v.is_nan() || da.is_nan() {
+            f64::NAN
+        } else {
+            0.0
+        }
     }
     fn logic_d(is_and: bool, a: Self, b: Self, da: Self, db: Self) -> Self {
         if a.is_nan() || b.is_nan() {
@@ -208,8 +213,8 @@ impl Num for DecInterval {
             DecInterval::new(da.iv.hull(db.iv), false)
         }
     }
-    fn flat_d(v: Self) -> Self {
-        DecInterval::new(Interval::point(0.0), v.defined)
+    fn flat_d(v: Self, da: Self) -> Self {
+        DecInterval::new(Interval::point(0.0), v.defined && da.defined)
     }
     fn logic_d(is_and: bool, a: Self, b: Self, da: Self, db: Self) -> Self {
         let ok = a.defined && b.defined && da.defined && db.defined;
@@ -319,7 +324,7 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
                     let s = add(N::cst(1.0), sq(a));
                     map3(|k| div(da[k], s))
                 }
-                U::Floor | U::Ceil | U::Round | U::Not => [N::flat_d(v); 3],
+                U::Floor | U::Ceil | U::Round | U::Not => map3(|k| N::flat_d(v, da[k])),
             };
             Dual { v, d }
         }
@@ -344,7 +349,7 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
                     let la = N::un(U::Log, pa);
                     map3(|k| mul(v, add(mul(db[k], la), mul(b, div(da[k], pa)))))
                 }
-                B::Compare => [N::flat_d(v); 3],
+                B::Compare => map3(|k| N::flat_d(N::flat_d(v, da[k]), db[k])),
                 B::And => map3(|k| N::logic_d(true, a, b, da[k], db[k])),
                 B::Or => map3(|k| N::logic_d(false, a, b, da[k], db[k])),
                 B::Mod => {
