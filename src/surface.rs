@@ -128,7 +128,8 @@ impl Surface {
     ) -> Result<Surface, Error> {
         // Nothing is compiled yet: each kernel kind on first use (or by
         // `Kernels::prepare`).
-        let kernels = Kernels::lazy(&program, &crate::jit::JitOptions::default()).map_err(Error::Jit)?;
+        let kernels =
+            Kernels::lazy(&program, &crate::jit::JitOptions::default()).map_err(Error::Jit)?;
         Ok(Surface {
             file: file.to_string(),
             program,

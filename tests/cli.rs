@@ -452,12 +452,22 @@ fn vm_compile_emit_and_errors() {
     assert_eq!(back.to_string(), ir);
     let o = isoc(&["compile", f.to_str().unwrap(), "--emit", "ast"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stdout(&o).starts_with("(x var-x)\n(y var-y)\n"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).starts_with("(x var-x)\n(y var-y)\n"),
+        "{}",
+        stdout(&o)
+    );
     let o = isoc(&["eval", f.to_str().unwrap(), "0.5", "0", "7", "--json"]);
     let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     assert_eq!(j["value"].as_f64().unwrap(), 0.0);
     // --domain is honoured, --set has nothing to set.
-    let o = isoc(&["eval", f.to_str().unwrap(), "--box", "0,1,0,1,0,1", "--json"]);
+    let o = isoc(&[
+        "eval",
+        f.to_str().unwrap(),
+        "--box",
+        "0,1,0,1,0,1",
+        "--json",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let o = isoc(&["compile", f.to_str().unwrap(), "--set", "r=1"]);
     assert_eq!(o.status.code(), Some(1));

@@ -489,7 +489,9 @@ fn vm_set_has_nothing_to_set() {
 
 #[test]
 fn vm_garbage_is_an_error_not_a_panic() {
-    let mut bytes: Vec<u8> = (0..20_000u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8).collect();
+    let mut bytes: Vec<u8> = (0..20_000u32)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
+        .collect();
     bytes.extend_from_slice(b"\n\0\0 \x01\n");
     let _ = isoc::Surface::compile_bytes(&bytes, "m.vm", &CompileOptions::default());
     let s: String = "x y z\n".repeat(5_000);

@@ -399,10 +399,10 @@ mod vm_ops {
                 BinOp::And | BinOp::Or => (p.0 == 0.0) != (q.0 == 0.0),
                 _ => matches!((period(p.0, p.1), period(q.0, q.1)), (Some(s), Some(t)) if s != t),
             };
-            if let Some(first) = seen.first() {
-                if seen.iter().any(|q| jump(first, q)) {
-                    prop_assert!(!defined, "{op:?} {a:?} {b:?}: a jump inside, yet continuous");
-                }
+            if let Some(first) = seen.first()
+                && seen.iter().any(|q| jump(first, q))
+            {
+                prop_assert!(!defined, "{op:?} {a:?} {b:?}: a jump inside, yet continuous");
             }
         }
 
@@ -440,12 +440,12 @@ mod vm_ops {
                         (f(p[0] + h, p[1]) - f(p[0] - h, p[1])) / (2.0 * h),
                         (f(p[0], p[1] + h) - f(p[0], p[1] - h)) / (2.0 * h),
                     ];
-                    for i in 0..2 {
+                    for (i, &fdi) in fd.iter().enumerate() {
                         let iv = gg.grad[i];
-                        let tol = 1e-5 * (1.0 + fd[i].abs());
+                        let tol = 1e-5 * (1.0 + fdi.abs());
                         prop_assert!(
-                            iv.lo - tol <= fd[i] && fd[i] <= iv.hi + tol,
-                            "{name}: finite difference {} outside {iv:?} at {p:?} on {bx:?}\n{prog}", fd[i]
+                            iv.lo - tol <= fdi && fdi <= iv.hi + tol,
+                            "{name}: finite difference {} outside {iv:?} at {p:?} on {bx:?}\n{prog}", fdi
                         );
                     }
                 }
@@ -546,16 +546,46 @@ mod vm_ops {
         assert_eq!(binary(BinOp::Or, 2.0, 5.0), 2.0);
         // Interval rules at a glance.
         let iv = |a: f64, b: f64| Interval::new(a, b);
-        assert_eq!(interval::unary(UnOp::Floor, iv(0.2, 0.9)), (iv(0.0, 0.0), true));
-        assert_eq!(interval::unary(UnOp::Floor, iv(0.2, 1.0)), (iv(0.0, 1.0), false));
-        assert_eq!(interval::binary(BinOp::Mod, iv(2.25, 2.75), iv(1.0, 1.0)), (iv(0.25, 0.75), true));
-        assert_eq!(interval::binary(BinOp::Mod, iv(2.25, 3.25), iv(1.0, 1.0)), (iv(0.0, 1.0), false));
-        assert_eq!(interval::binary(BinOp::Compare, iv(0.0, 1.0), iv(2.0, 3.0)), (iv(-1.0, -1.0), true));
-        assert_eq!(interval::binary(BinOp::Compare, iv(0.0, 2.0), iv(2.0, 3.0)), (iv(-1.0, 0.0), false));
-        assert_eq!(interval::binary(BinOp::And, iv(1.0, 2.0), iv(5.0, 6.0)), (iv(5.0, 6.0), true));
-        assert_eq!(interval::binary(BinOp::And, iv(-1.0, 2.0), iv(5.0, 6.0)), (iv(0.0, 6.0), false));
-        assert_eq!(interval::binary(BinOp::Or, iv(0.0, 0.0), iv(5.0, 6.0)), (iv(5.0, 6.0), true));
-        assert_eq!(interval::unary(UnOp::Not, iv(-1.0, 1.0)), (iv(0.0, 1.0), false));
+        assert_eq!(
+            interval::unary(UnOp::Floor, iv(0.2, 0.9)),
+            (iv(0.0, 0.0), true)
+        );
+        assert_eq!(
+            interval::unary(UnOp::Floor, iv(0.2, 1.0)),
+            (iv(0.0, 1.0), false)
+        );
+        assert_eq!(
+            interval::binary(BinOp::Mod, iv(2.25, 2.75), iv(1.0, 1.0)),
+            (iv(0.25, 0.75), true)
+        );
+        assert_eq!(
+            interval::binary(BinOp::Mod, iv(2.25, 3.25), iv(1.0, 1.0)),
+            (iv(0.0, 1.0), false)
+        );
+        assert_eq!(
+            interval::binary(BinOp::Compare, iv(0.0, 1.0), iv(2.0, 3.0)),
+            (iv(-1.0, -1.0), true)
+        );
+        assert_eq!(
+            interval::binary(BinOp::Compare, iv(0.0, 2.0), iv(2.0, 3.0)),
+            (iv(-1.0, 0.0), false)
+        );
+        assert_eq!(
+            interval::binary(BinOp::And, iv(1.0, 2.0), iv(5.0, 6.0)),
+            (iv(5.0, 6.0), true)
+        );
+        assert_eq!(
+            interval::binary(BinOp::And, iv(-1.0, 2.0), iv(5.0, 6.0)),
+            (iv(0.0, 6.0), false)
+        );
+        assert_eq!(
+            interval::binary(BinOp::Or, iv(0.0, 0.0), iv(5.0, 6.0)),
+            (iv(5.0, 6.0), true)
+        );
+        assert_eq!(
+            interval::unary(UnOp::Not, iv(-1.0, 1.0)),
+            (iv(0.0, 1.0), false)
+        );
     }
 }
 
@@ -589,14 +619,26 @@ mod vm_models {
                 for i in 0..=n {
                     for j in 0..=n {
                         for k in 0..=n {
-                            let at = |iv: Interval, t: usize| (iv.lo + (iv.hi - iv.lo) * t as f64 / n as f64).clamp(iv.lo, iv.hi);
+                            let at = |iv: Interval, t: usize| {
+                                (iv.lo + (iv.hi - iv.lo) * t as f64 / n as f64).clamp(iv.lo, iv.hi)
+                            };
                             let p = [at(bx[0], i), at(bx[1], j), at(bx[2], k), 0.0];
                             let v = s.point(p);
-                            assert!(v.is_nan() || r.iv.contains(v), "{model}: {r:?} on {bx:?} misses {v} at {p:?}");
-                            assert!(v.is_nan() || g.value.contains(v), "{model}: grad value {:?} misses {v}", g.value);
+                            assert!(
+                                v.is_nan() || r.iv.contains(v),
+                                "{model}: {r:?} on {bx:?} misses {v} at {p:?}"
+                            );
+                            assert!(
+                                v.is_nan() || g.value.contains(v),
+                                "{model}: grad value {:?} misses {v}",
+                                g.value
+                            );
                             if i == 3 && j == 3 {
                                 let want = vmref::eval(&text, p[0], p[1], p[2]);
-                                assert!(vmref::agree(v, want), "{model} at {p:?}: {v} vs reference {want}");
+                                assert!(
+                                    vmref::agree(v, want),
+                                    "{model} at {p:?}: {v} vs reference {want}"
+                                );
                             }
                         }
                     }

@@ -216,7 +216,10 @@ fn vm_one_megabyte_chain() {
     src.push_str("_bad add _1 _nope\n");
     let e = isoc::Surface::compile(&src, "chain.vm", &CompileOptions::default()).unwrap_err();
     assert!(
-        e.render().starts_with(&format!("chain.vm:{}:13: error: `_nope` is not defined", n + 3)),
+        e.render().starts_with(&format!(
+            "chain.vm:{}:13: error: `_nope` is not defined",
+            n + 3
+        )),
         "{}",
         e.render()
     );

@@ -206,8 +206,7 @@ fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result
                 keep_text: true,
                 ..Default::default()
             };
-            let kernels =
-                crate::jit::Kernels::lazy(&surface.program, &opts).map_err(Error::Jit)?;
+            let kernels = crate::jit::Kernels::lazy(&surface.program, &opts).map_err(Error::Jit)?;
             kernels.prepare(&crate::jit::Kind::EVERY);
             let mut s = String::new();
             for info in &kernels.info() {

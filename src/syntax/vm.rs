@@ -195,7 +195,10 @@ fn number(text: &str) -> Result<Const, String> {
 fn parse_line<'s>(toks: &[(&'s str, Range<usize>)]) -> Line<'s> {
     Line {
         name: toks[0].clone(),
-        op: toks.get(1).cloned().unwrap_or(("", toks[0].1.end..toks[0].1.end)),
+        op: toks
+            .get(1)
+            .cloned()
+            .unwrap_or(("", toks[0].1.end..toks[0].1.end)),
         args: toks.get(2..).unwrap_or(&[]).to_vec(),
     }
 }
@@ -213,7 +216,12 @@ fn check_op(line: &Line) -> Result<Kind, Diagnostic> {
     let Some(&(_, kind)) = OPS.iter().find(|(n, _)| n == op) else {
         let d = Diagnostic::new(format!("unknown op `{op}`"), span.clone());
         return Err(
-            match diag::closest(op, OPS.iter().map(|(n, _)| *n).filter(|n| *n != "rand" && *n != "mix")) {
+            match diag::closest(
+                op,
+                OPS.iter()
+                    .map(|(n, _)| *n)
+                    .filter(|n| *n != "rand" && *n != "mix"),
+            ) {
                 Some(c) => d.with_note(format!("help: did you mean `{c}`?")),
                 None => d,
             },
