@@ -103,9 +103,18 @@ impl std::fmt::Debug for Surface {
 }
 
 impl Surface {
-    /// Compiles source text. `file` names the source in diagnostics.
+    /// Compiles source text. `file` names the source in diagnostics and
+    /// chooses the language: a `.vm` file is a Fidget text-SSA model
+    /// ([`crate::syntax::vm`]), anything else `.iso`.
     pub fn compile(source: &str, file: &str, opts: &CompileOptions) -> Result<Surface, Error> {
-        let lowered = syntax::front_end(source, file, opts)?;
+        let lowered = syntax::front_end_for(source, file, opts)?;
+        Surface::from_program(file, lowered.program, lowered.domain, lowered.params)
+    }
+
+    /// Compiles a Fidget `.vm` model whatever `file` is called (see
+    /// [`crate::syntax::vm`]).
+    pub fn compile_vm(source: &str, file: &str, opts: &CompileOptions) -> Result<Surface, Error> {
+        let lowered = syntax::vm::front_end(source, file, opts)?;
         Surface::from_program(file, lowered.program, lowered.domain, lowered.params)
     }
 

@@ -350,3 +350,137 @@ fn animate_errors_write_nothing() {
         assert!(!dir.exists(), "{args:?} created the output directory");
     }
 }
+
+// ------------------------------------------------------------ `.vm` models
+
+#[path = "common/vmref.rs"]
+mod vmref;
+
+/// `isoc eval MODEL X Y Z --json` agrees with the independent line-by-line
+/// interpreter of the `.vm` text (Fidget's semantics, f64) at random
+/// points of the domain, on each shared model.
+#[test]
+fn vm_models_eval_matches_independent_interpreter() {
+    for (m, model) in vmref::MODELS.iter().enumerate() {
+        let path = vmref::models_dir().join(model);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut rng = vmref::Lcg(0x9e37_79b9_7f4a_7c15 ^ m as u64);
+        let n = if *model == "prospero.vm" { 20 } else { 50 };
+        for _ in 0..n {
+            let p = [0, 1, 2].map(|_| rng.range(-1.0, 1.0));
+            let args: Vec<String> = p.iter().map(|c| format!("{c:?}")).collect();
+            let o = isoc(&[
+                "eval",
+                path.to_str().unwrap(),
+                &args[0],
+                &args[1],
+                &args[2],
+                "--json",
+            ]);
+            assert!(o.status.success(), "{model}: {}", stderr(&o));
+            let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+            let got = j["value"].as_f64().unwrap_or(f64::NAN);
+            let want = vmref::eval(&text, p[0], p[1], p[2]);
+            assert!(
+                vmref::agree(got, want),
+                "{model} at {p:?}: isoc {got:e}, reference {want:e}"
+            );
+        }
+    }
+}
+
+fn models_path(name: &str) -> String {
+    vmref::models_dir().join(name).to_str().unwrap().to_string()
+}
+
+fn mesh_stats(args: &[&str]) -> serde_json::Value {
+    let o = isoc(args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    serde_json::from_str(&stdout(&o)).unwrap()
+}
+
+#[test]
+fn vm_tanglecube_mesh_is_closed_genus_5() {
+    // The model's surface reaches |x| ≈ 2.34, so the default [-1, 1]³ cuts
+    // it; a domain around all of it gives the closed genus-5 surface.
+    let out = temp_file("tanglecube.ply", b"");
+    let j = mesh_stats(&[
+        "mesh",
+        &models_path("tanglecube.vm"),
+        "--level",
+        "5",
+        "--domain",
+        "-3,3,-3,3,-3,3",
+        "--stats",
+        "json",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(j["watertight"], true, "{j}");
+    assert_eq!(j["boundary_edges"], 0, "{j}");
+    assert_eq!(j["components"], 1, "{j}");
+    assert_eq!(j["genus"], serde_json::json!([5]), "{j}");
+}
+
+#[test]
+fn vm_two_d_model_gives_an_open_prism() {
+    let out = temp_file("quarter.ply", b"");
+    let j = mesh_stats(&[
+        "mesh",
+        &models_path("quarter.vm"),
+        "--level",
+        "5",
+        "--stats",
+        "json",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(j["watertight"], false, "{j}");
+    assert!(j["boundary_edges"].as_u64().unwrap() > 0, "{j}");
+    assert!(j["triangles"].as_u64().unwrap() > 0, "{j}");
+}
+
+#[test]
+fn vm_compile_emit_and_errors() {
+    let f = temp_file("circle.vm", b"# a circle\nx var-x\ny var-y\nx2 square x\ny2 square y\nr add x2 y2\nc const 0.25\nout sub r c # f = r^2 - 1/4\n");
+    let o = isoc(&["compile", f.to_str().unwrap(), "--emit", "ir"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let ir = stdout(&o);
+    assert!(ir.contains("square") && ir.contains("const 0.25"), "{ir}");
+    // The IR text round-trips.
+    let back = isoc::ir::text::parse(&ir).unwrap();
+    assert_eq!(back.to_string(), ir);
+    let o = isoc(&["compile", f.to_str().unwrap(), "--emit", "ast"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).starts_with("(x var-x)\n(y var-y)\n"),
+        "{}",
+        stdout(&o)
+    );
+    let o = isoc(&["eval", f.to_str().unwrap(), "0.5", "0", "7", "--json"]);
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(j["value"].as_f64().unwrap(), 0.0);
+    // --domain is honoured, --set has nothing to set.
+    let o = isoc(&[
+        "eval",
+        f.to_str().unwrap(),
+        "--box",
+        "0,1,0,1,0,1",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = isoc(&["compile", f.to_str().unwrap(), "--set", "r=1"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("is not a param"), "{}", stderr(&o));
+    // A located error, exit status 1, no output file.
+    let bad = temp_file("bad.vm", b"x var-x\ny rand x\n");
+    let out = bad.with_extension("ply");
+    let o = isoc(&["mesh", bad.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).starts_with(&format!("{}:2:3: error: `rand`", bad.display())),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
+}

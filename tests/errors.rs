@@ -348,3 +348,153 @@ fn missing_semicolon_before_keyword() {
         ],
     );
 }
+
+// ------------------------------------------------------------ `.vm` models
+
+/// The rendered error of a `.vm` model that must fail (through the
+/// extension dispatch of `Surface::compile_bytes`).
+fn vm_error(src: &[u8]) -> String {
+    match isoc::Surface::compile_bytes(src, "m.vm", &CompileOptions::default()) {
+        Ok(_) => panic!("expected an error for:\n{}", String::from_utf8_lossy(src)),
+        Err(e @ isoc::error::Error::Source { .. }) => e.render(),
+        Err(e) => panic!("expected a source error, got {e:?}"),
+    }
+}
+
+/// Asserts that the `.vm` source fails with exactly these headers.
+fn vm_expect(src: &[u8], want: &[&str]) -> String {
+    let r = vm_error(src);
+    let got: Vec<&str> = r.lines().filter(|l| l.starts_with("m.vm:")).collect();
+    assert_eq!(got, want, "full output:\n{r}");
+    r
+}
+
+#[test]
+fn vm_unknown_op() {
+    let r = vm_expect(
+        b"_0 var-x\n_1 sqr _0\n",
+        &["m.vm:2:4: error: unknown op `sqr`"],
+    );
+    let lines: Vec<&str> = r.lines().collect();
+    assert_eq!(lines[2], "2 | _1 sqr _0");
+    assert_eq!(lines[3], "  |    ^^^");
+    assert_eq!(lines[4], "  = help: did you mean `sqrt`?");
+    vm_expect(b"a var-w\n", &["m.vm:1:3: error: unknown op `var-w`"]);
+}
+
+#[test]
+fn vm_wrong_arity() {
+    vm_expect(
+        b"_0 var-x\n_1 add _0\n",
+        &["m.vm:2:4: error: `add` takes 2 arguments, found 1"],
+    );
+    vm_expect(
+        b"_0 var-x\n_1 neg _0 _0\n",
+        &["m.vm:2:4: error: `neg` takes 1 argument, found 2"],
+    );
+    vm_expect(
+        b"_0 var-x 1\n",
+        &["m.vm:1:4: error: `var-x` takes 0 arguments, found 1"],
+    );
+    vm_expect(
+        b"_0 const\n",
+        &["m.vm:1:4: error: `const` takes 1 argument (a number), found 0"],
+    );
+    vm_expect(b"_0\n", &["m.vm:1:3: error: expected an op after `_0`"]);
+}
+
+#[test]
+fn vm_undefined_name() {
+    vm_expect(
+        b"_0 var-x\n_1 add _0 _9\n",
+        &["m.vm:2:11: error: `_9` is not defined before this line"],
+    );
+    // Used before its definition (SSA order).
+    vm_expect(
+        b"_1 neg _2\n_2 var-x\n",
+        &["m.vm:1:8: error: `_2` is not defined before this line"],
+    );
+}
+
+#[test]
+fn vm_duplicate_name() {
+    let r = vm_expect(
+        b"_0 var-x\n  _0 var-y\n_1 add _0 _0\n",
+        &["m.vm:2:3: error: `_0` is defined twice"],
+    );
+    assert!(r.contains("= note: first defined at m.vm:1:1"), "{r}");
+}
+
+#[test]
+fn vm_bad_numbers() {
+    for bad in ["1.2.3", "inf", "-inf", "NaN", "1e999", "0x10", "abc"] {
+        vm_expect(
+            format!("# c\n_0 const {bad}\n").as_bytes(),
+            &[&format!("m.vm:2:10: error: `{bad}` is not a finite number")],
+        );
+    }
+}
+
+#[test]
+fn vm_empty_file_and_only_comments() {
+    for src in [&b""[..], b"\n\n", b"# only a comment\n\n   # and another\n"] {
+        vm_expect(src, &["m.vm:1:1: error: the file has no instruction"]);
+    }
+}
+
+#[test]
+fn vm_invalid_utf8() {
+    vm_expect(
+        b"_0 var-x\n_1 neg \xff\n",
+        &["m.vm:2:8: error: invalid UTF-8 (bytes 0xff)"],
+    );
+}
+
+#[test]
+fn vm_noise_ops_are_errors() {
+    vm_expect(
+        b"_0 var-x\n_1 rand _0\n",
+        &["m.vm:2:4: error: `rand` (one of Fidget's noise ops) is not supported"],
+    );
+    vm_expect(
+        b"_0 var-x\n_1 mix _0 _0\n",
+        &["m.vm:2:4: error: `mix` (one of Fidget's noise ops) is not supported"],
+    );
+}
+
+#[test]
+fn vm_every_error_is_reported_without_cascades() {
+    // Line 2's error poisons `_1`, so line 3 reports nothing; line 4 does.
+    vm_expect(
+        b"_0 var-x\n_1 foo _0\n_2 neg _1\n_3 add _2 _q\n",
+        &[
+            "m.vm:2:4: error: unknown op `foo`",
+            "m.vm:4:11: error: `_q` is not defined before this line",
+        ],
+    );
+}
+
+#[test]
+fn vm_set_has_nothing_to_set() {
+    let opts = CompileOptions {
+        params: vec![("r".into(), 1.0)],
+        domain: None,
+    };
+    let e = isoc::Surface::compile_bytes(b"_0 var-x\n", "m.vm", &opts).unwrap_err();
+    assert_eq!(
+        e.render(),
+        "error: --set r=…: `r` is not a param of m.vm (the file has no params)\n"
+    );
+}
+
+#[test]
+fn vm_garbage_is_an_error_not_a_panic() {
+    let mut bytes: Vec<u8> = (0..20_000u32)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
+        .collect();
+    bytes.extend_from_slice(b"\n\0\0 \x01\n");
+    let _ = isoc::Surface::compile_bytes(&bytes, "m.vm", &CompileOptions::default());
+    let s: String = "x y z\n".repeat(5_000);
+    let r = vm_error(s.as_bytes());
+    assert!(r.contains("too many errors"), "{}", &r[..300.min(r.len())]);
+}

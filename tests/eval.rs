@@ -303,3 +303,347 @@ mod isotonicity {
         }
     }
 }
+
+mod vm_ops {
+    //! Fidget's ops (`floor ceil round not compare mod and or`): interval
+    //! enclosures over random boxes, the "defined and continuous" flag
+    //! false whenever two samples of the box straddle a jump, gradient
+    //! enclosures against finite differences where continuous, and the JIT
+    //! equal to the reference interpreter on programs using them.
+    use crate::common::cases;
+    use isoc::eval::{grad, point};
+    use isoc::interval::{self, Interval};
+    use isoc::ir::{BinOp, Builder, Program, UnOp, Var};
+    use proptest::prelude::*;
+
+    const UNARY: [UnOp; 4] = [UnOp::Floor, UnOp::Ceil, UnOp::Round, UnOp::Not];
+    const BINARY: [BinOp; 4] = [BinOp::Compare, BinOp::Mod, BinOp::And, BinOp::Or];
+
+    /// A bound: often an integer, a half-integer or zero (where the jumps
+    /// are), else any value in [-6, 6].
+    fn arb_bound() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            2 => (-6i32..=6).prop_map(f64::from),
+            1 => (-12i32..=12).prop_map(|k| f64::from(k) / 2.0),
+            1 => Just(0.0),
+            4 => -6.0f64..6.0,
+        ]
+    }
+
+    /// An interval; a quarter of them degenerate.
+    fn arb_iv() -> impl Strategy<Value = Interval> {
+        prop_oneof![
+            3 => (arb_bound(), arb_bound()).prop_map(|(a, b)| Interval::new(a.min(b), a.max(b))),
+            1 => arb_bound().prop_map(Interval::point),
+        ]
+    }
+
+    /// Samples of `iv`: both ends, the midpoint and random points.
+    fn samples(iv: Interval, seed: u64) -> Vec<f64> {
+        let mut rng = crate::common::Rng(seed);
+        let mut v = vec![iv.lo, iv.hi, 0.5 * (iv.lo + iv.hi)];
+        for _ in 0..20 {
+            v.push(iv.lo + (iv.hi - iv.lo) * rng.unit());
+        }
+        for k in (iv.lo.ceil() as i64)..=(iv.hi.floor() as i64) {
+            v.push(k as f64);
+        }
+        v.retain(|x| iv.contains(*x));
+        v
+    }
+
+    /// `⌊x/|y|⌋`, or None too close to a jump to tell in f64.
+    fn period(x: f64, y: f64) -> Option<f64> {
+        let q = x / y.abs();
+        ((q - q.round()).abs() > 1e-9).then(|| q.floor())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(cases()))]
+
+        #[test]
+        fn unary_enclosure_and_jumps(k in 0usize..4, a in arb_iv(), seed in any::<u64>()) {
+            let op = UNARY[k];
+            let (r, defined) = interval::unary(op, a);
+            let xs = samples(a, seed);
+            let vals: Vec<f64> = xs.iter().map(|&x| point::unary(op, x)).collect();
+            for (x, v) in xs.iter().zip(&vals) {
+                prop_assert!(r.contains(*v), "{op:?} {a:?} = {r:?} misses {v} at {x}");
+            }
+            if vals.iter().any(|v| *v != vals[0]) {
+                prop_assert!(!defined, "{op:?} {a:?}: a jump inside, yet continuous");
+            }
+        }
+
+        #[test]
+        fn binary_enclosure_and_jumps(k in 0usize..4, a in arb_iv(), b in arb_iv(), seed in any::<u64>()) {
+            let op = BINARY[k];
+            let (r, defined) = interval::binary(op, a, b);
+            let xs = samples(a, seed);
+            let ys = samples(b, seed ^ 0x5555);
+            let mut seen: Vec<(f64, f64, f64)> = Vec::new();
+            for &x in &xs {
+                for &y in &ys {
+                    let v = point::binary(op, x, y);
+                    if v.is_nan() {
+                        prop_assert!(!defined, "{op:?} {a:?} {b:?}: NaN at ({x}, {y}), yet defined");
+                        continue;
+                    }
+                    prop_assert!(r.contains(v), "{op:?} {a:?} {b:?} = {r:?} misses {v} at ({x}, {y})");
+                    seen.push((x, y, v));
+                }
+            }
+            // Two samples on both sides of a jump: the flag must be false.
+            let jump = |p: &(f64, f64, f64), q: &(f64, f64, f64)| match op {
+                BinOp::Compare => p.2 != q.2,
+                BinOp::And | BinOp::Or => (p.0 == 0.0) != (q.0 == 0.0),
+                _ => matches!((period(p.0, p.1), period(q.0, q.1)), (Some(s), Some(t)) if s != t),
+            };
+            if let Some(first) = seen.first()
+                && seen.iter().any(|q| jump(first, q))
+            {
+                prop_assert!(!defined, "{op:?} {a:?} {b:?}: a jump inside, yet continuous");
+            }
+        }
+
+        #[test]
+        fn gradient_contains_finite_differences(
+            k in 0usize..8,
+            cx in -2.0f64..2.0, cy in -2.0f64..2.0,
+            w in 1e-3f64..0.5, c in arb_bound(),
+            seed in any::<u64>(),
+        ) {
+            let prog = two_var_program(k, c);
+            let bx = [
+                Interval::new(cx - w, cx + w),
+                Interval::new(cy - w, cy + w),
+                Interval::point(0.0),
+                Interval::point(0.0),
+            ];
+            let g = grad::eval(&prog, bx);
+            let jit = isoc::Surface::from_program("t", prog.clone(), isoc::Bounds { lo: [-1.0; 3], hi: [1.0; 3] }, vec![]).unwrap();
+            let gj = jit.grad(bx);
+            let mut rng = crate::common::Rng(seed);
+            let h = 1e-7;
+            for _ in 0..8 {
+                let p = [cx + 0.9 * w * (2.0 * rng.unit() - 1.0), cy + 0.9 * w * (2.0 * rng.unit() - 1.0)];
+                let f = |x: f64, y: f64| point::eval(&prog, [x, y, 0.0, 0.0]);
+                let (_, dv) = grad::eval_point(&prog, [p[0], p[1], 0.0, 0.0]);
+                for (gg, name) in [(&g, "reference"), (&gj, "jit")] {
+                    for (i, d) in dv.iter().take(2).enumerate() {
+                        prop_assert!(gg.grad[i].contains(*d) || d.is_nan(), "{name}: AD {d} outside {:?}\n{prog}", gg.grad[i]);
+                    }
+                    if !gg.defined {
+                        continue;
+                    }
+                    let fd = [
+                        (f(p[0] + h, p[1]) - f(p[0] - h, p[1])) / (2.0 * h),
+                        (f(p[0], p[1] + h) - f(p[0], p[1] - h)) / (2.0 * h),
+                    ];
+                    for (i, &fdi) in fd.iter().enumerate() {
+                        let iv = gg.grad[i];
+                        let tol = 1e-5 * (1.0 + fdi.abs());
+                        prop_assert!(
+                            iv.lo - tol <= fdi && fdi <= iv.hi + tol,
+                            "{name}: finite difference {} outside {iv:?} at {p:?} on {bx:?}\n{prog}", fdi
+                        );
+                    }
+                }
+            }
+        }
+
+        #[test]
+        fn jit_equals_reference(k in 0usize..8, c in arb_bound(), pts in prop::collection::vec((-3.0f64..3.0, -3.0f64..3.0), 1..20)) {
+            let prog = two_var_program(k, c);
+            let s = isoc::Surface::from_program("t", prog.clone(), isoc::Bounds { lo: [-1.0; 3], hi: [1.0; 3] }, vec![]).unwrap();
+            for &(x, y) in &pts {
+                let p = [x, y, 0.0, 0.0];
+                let (a, b) = (s.point(p), point::eval(&prog, p));
+                prop_assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "point {a} != {b}\n{prog}");
+                let (v, d) = s.point_grad(p);
+                let (v2, d2) = grad::eval_point(&prog, p);
+                for (u, w) in std::iter::once((v, v2)).chain(d.into_iter().zip(d2)) {
+                    prop_assert!(u.to_bits() == w.to_bits() || (u.is_nan() && w.is_nan()), "point_grad {u} != {w}\n{prog}");
+                }
+                let iv = s.interval(p.map(Interval::point));
+                prop_assert!(b.is_nan() || iv.iv.contains(b), "{iv:?} misses {b}\n{prog}");
+            }
+        }
+    }
+
+    /// Programs in `x`, `y` exercising the new ops on non-trivial operands
+    /// (`c` a constant).
+    fn two_var_program(k: usize, c: f64) -> Program {
+        let mut b = Builder::new();
+        let x = b.var(Var::X);
+        let y = b.var(Var::Y);
+        let three = b.num(3.0);
+        let cc = b.num(c);
+        let t = b.binary(BinOp::Mul, three, x);
+        let g = b.binary(BinOp::Add, t, y); // 3x + y
+        let h0 = b.binary(BinOp::Mul, x, y);
+        let h = b.binary(BinOp::Sub, h0, cc); // xy − c
+        let out = match k {
+            0 => b.unary(UnOp::Floor, g),
+            1 => {
+                let r = b.unary(UnOp::Round, g);
+                b.binary(BinOp::Add, r, x)
+            }
+            2 => {
+                let n = b.unary(UnOp::Not, h);
+                b.binary(BinOp::Mul, n, y)
+            }
+            3 => {
+                let cmp = b.binary(BinOp::Compare, g, h);
+                b.binary(BinOp::Add, cmp, h)
+            }
+            4 => {
+                let m = if c == 0.0 { b.num(0.7) } else { cc };
+                b.binary(BinOp::Mod, g, m)
+            }
+            5 => {
+                let sq = b.unary(UnOp::Square, y);
+                let one = b.num(1.0);
+                let m = b.binary(BinOp::Add, sq, one);
+                b.binary(BinOp::Mod, h, m)
+            }
+            6 => {
+                let f = b.unary(UnOp::Ceil, x);
+                let a = b.binary(BinOp::And, f, h);
+                b.binary(BinOp::Add, a, g)
+            }
+            _ => {
+                let f = b.unary(UnOp::Floor, y);
+                b.binary(BinOp::Or, f, h)
+            }
+        };
+        b.finish(out)
+    }
+
+    #[test]
+    fn fidget_semantics_at_points() {
+        use point::{binary, unary};
+        assert_eq!(unary(UnOp::Round, 2.5), 3.0);
+        assert_eq!(unary(UnOp::Round, -2.5), -3.0);
+        assert_eq!(unary(UnOp::Round, 0.49999999999999994), 0.0);
+        assert_eq!(unary(UnOp::Floor, -0.5), -1.0);
+        assert_eq!(unary(UnOp::Ceil, -0.5), -0.0);
+        assert_eq!(unary(UnOp::Not, 0.0), 1.0);
+        assert_eq!(unary(UnOp::Not, -0.0), 1.0);
+        assert_eq!(unary(UnOp::Not, 3.0), 0.0);
+        assert!(unary(UnOp::Not, f64::NAN).is_nan());
+        assert_eq!(binary(BinOp::Compare, 1.0, 2.0), -1.0);
+        assert_eq!(binary(BinOp::Compare, 2.0, 2.0), 0.0);
+        assert_eq!(binary(BinOp::Compare, 3.0, 2.0), 1.0);
+        assert!(binary(BinOp::Compare, f64::NAN, 2.0).is_nan());
+        assert_eq!(binary(BinOp::Mod, -1.0, 3.0), 2.0);
+        assert_eq!(binary(BinOp::Mod, -1.0, -3.0), 2.0);
+        assert_eq!(binary(BinOp::Mod, 7.5, 2.0), 1.5);
+        assert!(binary(BinOp::Mod, 1.0, 0.0).is_nan());
+        assert_eq!(binary(BinOp::And, 0.0, 5.0), 0.0);
+        assert_eq!(binary(BinOp::And, 2.0, 5.0), 5.0);
+        assert_eq!(binary(BinOp::Or, 0.0, 5.0), 5.0);
+        assert_eq!(binary(BinOp::Or, 2.0, 5.0), 2.0);
+        // Interval rules at a glance.
+        let iv = |a: f64, b: f64| Interval::new(a, b);
+        assert_eq!(
+            interval::unary(UnOp::Floor, iv(0.2, 0.9)),
+            (iv(0.0, 0.0), true)
+        );
+        assert_eq!(
+            interval::unary(UnOp::Floor, iv(0.2, 1.0)),
+            (iv(0.0, 1.0), false)
+        );
+        assert_eq!(
+            interval::binary(BinOp::Mod, iv(2.25, 2.75), iv(1.0, 1.0)),
+            (iv(0.25, 0.75), true)
+        );
+        assert_eq!(
+            interval::binary(BinOp::Mod, iv(2.25, 3.25), iv(1.0, 1.0)),
+            (iv(0.0, 1.0), false)
+        );
+        assert_eq!(
+            interval::binary(BinOp::Compare, iv(0.0, 1.0), iv(2.0, 3.0)),
+            (iv(-1.0, -1.0), true)
+        );
+        assert_eq!(
+            interval::binary(BinOp::Compare, iv(0.0, 2.0), iv(2.0, 3.0)),
+            (iv(-1.0, 0.0), false)
+        );
+        assert_eq!(
+            interval::binary(BinOp::And, iv(1.0, 2.0), iv(5.0, 6.0)),
+            (iv(5.0, 6.0), true)
+        );
+        assert_eq!(
+            interval::binary(BinOp::And, iv(-1.0, 2.0), iv(5.0, 6.0)),
+            (iv(0.0, 6.0), false)
+        );
+        assert_eq!(
+            interval::binary(BinOp::Or, iv(0.0, 0.0), iv(5.0, 6.0)),
+            (iv(5.0, 6.0), true)
+        );
+        assert_eq!(
+            interval::unary(UnOp::Not, iv(-1.0, 1.0)),
+            (iv(0.0, 1.0), false)
+        );
+    }
+}
+
+mod vm_models {
+    //! Each shared `.vm` model: box enclosures from `Surface::interval`
+    //! contain dense samples of `Surface::point` (soundness), and the point
+    //! values agree with the independent interpreter of the text.
+    use crate::common::vmref;
+    use isoc::interval::Interval;
+    use isoc::{CompileOptions, Surface};
+
+    #[test]
+    fn enclosures_contain_samples() {
+        for (m, model) in vmref::MODELS.iter().enumerate() {
+            let text = std::fs::read_to_string(vmref::models_dir().join(model)).unwrap();
+            let s = Surface::compile(&text, model, &CompileOptions::default())
+                .unwrap_or_else(|e| panic!("{}", e.render()));
+            assert_eq!(s.domain.lo, [-1.0; 3]);
+            assert_eq!(s.domain.hi, [1.0; 3]);
+            let mut rng = vmref::Lcg(12345 + m as u64);
+            for _ in 0..30 {
+                let w = [0.5, 0.1, 0.01][(rng.unit() * 3.0) as usize % 3];
+                let bx: [Interval; 3] = std::array::from_fn(|_| {
+                    let lo = rng.range(-1.0, 1.0 - w);
+                    Interval::new(lo, lo + w * rng.range(0.2, 1.0))
+                });
+                let b4 = [bx[0], bx[1], bx[2], Interval::point(0.0)];
+                let r = s.interval(b4);
+                let g = s.grad(b4);
+                let n = 6;
+                for i in 0..=n {
+                    for j in 0..=n {
+                        for k in 0..=n {
+                            let at = |iv: Interval, t: usize| {
+                                (iv.lo + (iv.hi - iv.lo) * t as f64 / n as f64).clamp(iv.lo, iv.hi)
+                            };
+                            let p = [at(bx[0], i), at(bx[1], j), at(bx[2], k), 0.0];
+                            let v = s.point(p);
+                            assert!(
+                                v.is_nan() || r.iv.contains(v),
+                                "{model}: {r:?} on {bx:?} misses {v} at {p:?}"
+                            );
+                            assert!(
+                                v.is_nan() || g.value.contains(v),
+                                "{model}: grad value {:?} misses {v}",
+                                g.value
+                            );
+                            if i == 3 && j == 3 {
+                                let want = vmref::eval(&text, p[0], p[1], p[2]);
+                                assert!(
+                                    vmref::agree(v, want),
+                                    "{model} at {p:?}: {v} vs reference {want}"
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}

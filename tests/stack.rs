@@ -193,3 +193,34 @@ fn deep_calls_and_wide_calls() {
     let args = vec!["x"; 100_000].join(", ");
     assert!(run(&format!("{D}surface max({args}, y);")));
 }
+
+#[test]
+fn vm_one_megabyte_chain() {
+    // 50,000 `add` lines, each using the previous: one long dependency
+    // chain (~1 MB). Must compile and evaluate without recursion, quickly.
+    use std::fmt::Write;
+    let n = 50_000;
+    let mut src = String::from("# a long chain\n_0 var-x\n");
+    for i in 1..=n {
+        let _ = writeln!(src, "_{i} add _{} _0", i - 1);
+    }
+    assert!(src.len() > 1_000_000, "{}", src.len());
+    let start = Instant::now();
+    let s = isoc::Surface::compile(&src, "chain.vm", &CompileOptions::default())
+        .unwrap_or_else(|e| panic!("{}", e.render()));
+    assert_eq!(s.program.len(), n + 1);
+    assert_eq!(s.point([1.0, 0.0, 0.0, 0.0]), (n + 1) as f64);
+    let took = start.elapsed();
+    assert!(took < Duration::from_secs(10), "took {took:?}");
+    // An error at the very end of the long file is still located.
+    src.push_str("_bad add _1 _nope\n");
+    let e = isoc::Surface::compile(&src, "chain.vm", &CompileOptions::default()).unwrap_err();
+    assert!(
+        e.render().starts_with(&format!(
+            "chain.vm:{}:13: error: `_nope` is not defined",
+            n + 3
+        )),
+        "{}",
+        e.render()
+    );
+}

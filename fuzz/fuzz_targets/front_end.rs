@@ -1,7 +1,8 @@
 //! Fuzzes the whole front end: arbitrary bytes → diagnostics or a surface,
 //! then all three reference evaluators on a few points and boxes, checking
 //! the enclosure property on the way (a panic or a broken enclosure is a
-//! crash).
+//! crash). The same bytes go to both front ends: as `fuzz.iso` and as a
+//! Fidget model `fuzz.vm`.
 #![no_main]
 
 use isoc::interval::Interval;
@@ -9,8 +10,14 @@ use isoc::{CompileOptions, Surface};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
+    for file in ["fuzz.iso", "fuzz.vm"] {
+        check(data, file);
+    }
+});
+
+fn check(data: &[u8], file: &str) {
     let opts = CompileOptions::default();
-    let Ok(surface) = Surface::compile_bytes(data, "fuzz.iso", &opts) else {
+    let Ok(surface) = Surface::compile_bytes(data, file, &opts) else {
         return;
     };
     let d = surface.domain;
@@ -38,4 +45,4 @@ fuzz_target!(|data: &[u8]| {
             }
         }
     }
-});
+}

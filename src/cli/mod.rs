@@ -25,7 +25,7 @@ pub struct Cli {
 /// Options shared by the commands that compile a file.
 #[derive(clap::Args, Debug, Clone)]
 pub struct SourceArgs {
-    /// The `.iso` file.
+    /// The `.iso` file (or a Fidget `.vm` model, by its extension).
     pub file: PathBuf,
     /// Override a `param` (repeatable): `--set r=1.5`.
     #[arg(long = "set", value_name = "NAME=VALUE")]
@@ -196,7 +196,7 @@ fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result
     if emit == Some(Emit::Ast) {
         let (name, bytes) = load(args)?;
         let source = crate::syntax::source_from_bytes(&bytes, &name)?;
-        return write(out, &crate::syntax::emit_ast(&source, &name)?);
+        return write(out, &crate::syntax::emit_ast_for(&source, &name)?);
     }
     let surface = compile_file(args)?;
     match emit {

@@ -18,7 +18,12 @@
 //! `sin: cos(a) a'`, `cos: -sin(a) a'`, `tan: (1+v²) a'`,
 //! `asin: a'/√(1-a²)`, `acos: -a'/√(1-a²)`, `atan: a'/(1+a²)`,
 //! `mul: a'b + ab'`, `div: (a' - v b')/b`, `atan2(y,x): (x y' - y x')/(x²+y²)`,
-//! `pow: v (b' log a + b a'/a)`, `powi n: n a^(n-1) a'`.
+//! `pow: v (b' log a + b a'/a)`, `powi n: n a^(n-1) a'`,
+//! `mod: a' − q b'` with `q = (a − v)/b` (the integer `⌊a/|b|⌋·sign b`).
+//! Piecewise-constant ops (`floor ceil round not compare`) have derivative
+//! 0, flagged not defined (with the value) when a jump may lie in the box;
+//! `and`/`or` take the derivative of the operand they surely choose, else
+//! the hull of both, not defined.
 //! Non-smooth ops: `abs'` is `a'` for `a > 0`, `-a'` for `a < 0` and the hull
 //! `[-1, 1]·a'` when the interval touches or straddles 0 (the point rule
 //! picks `a'` at `a = 0`); `min`/`max` take the derivative of the operand
@@ -74,6 +79,14 @@ pub trait Num: Copy {
     fn abs_d(a: Self, da: Self) -> Self;
     /// Derivative of `min(a, b)` (`MIN`) or `max(a, b)`.
     fn select_d(is_min: bool, a: Self, b: Self, da: Self, db: Self) -> Self;
+    /// The zero derivative of a piecewise-constant op whose value is `v`
+    /// and operand derivative `da` (`floor`, `not`, `compare`, …): NaN
+    /// where `v` or `da` is, and for intervals carrying both flags (false
+    /// across a jump; an operand's flag is kept, as the JIT's kernels do).
+    fn flat_d(v: Self, da: Self) -> Self;
+    /// Derivative of `and(a, b)` (`is_and`) or `or(a, b)`: the chosen
+    /// operand's, the hull of both (not defined) when the choice is open.
+    fn logic_d(is_and: bool, a: Self, b: Self, da: Self, db: Self) -> Self;
 }
 
 impl Num for f64 {
@@ -118,6 +131,22 @@ impl Num for f64 {
             db
         } else {
             da
+        }
+    }
+    fn flat_d(v: Self, da: Self) -> Self {
+        if v.is_nan() || da.is_nan() {
+            f64::NAN
+        } else {
+            0.0
+        }
+    }
+    fn logic_d(is_and: bool, a: Self, b: Self, da: Self, db: Self) -> Self {
+        if a.is_nan() || b.is_nan() {
+            f64::NAN
+        } else if (a == 0.0) == is_and {
+            da
+        } else {
+            db
         }
     }
 }
@@ -175,6 +204,30 @@ impl Num for DecInterval {
             (a.hi < b.lo, b.hi < a.lo)
         } else {
             (a.lo > b.hi, b.lo > a.hi)
+        };
+        if first {
+            DecInterval::new(da.iv, ok)
+        } else if second {
+            DecInterval::new(db.iv, ok)
+        } else {
+            DecInterval::new(da.iv.hull(db.iv), false)
+        }
+    }
+    fn flat_d(v: Self, da: Self) -> Self {
+        DecInterval::new(Interval::point(0.0), v.defined && da.defined)
+    }
+    fn logic_d(is_and: bool, a: Self, b: Self, da: Self, db: Self) -> Self {
+        let ok = a.defined && b.defined && da.defined && db.defined;
+        let (a, b) = (a.iv, b.iv);
+        if a.is_empty() || b.is_empty() {
+            return DecInterval::new(Interval::EMPTY, false);
+        }
+        let zero = a.lo == 0.0 && a.hi == 0.0;
+        let nonzero = !a.contains(0.0);
+        let (first, second) = if is_and {
+            (zero, nonzero)
+        } else {
+            (nonzero, zero)
         };
         if first {
             DecInterval::new(da.iv, ok)
@@ -271,6 +324,7 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
                     let s = add(N::cst(1.0), sq(a));
                     map3(|k| div(da[k], s))
                 }
+                U::Floor | U::Ceil | U::Round | U::Not => map3(|k| N::flat_d(v, da[k])),
             };
             Dual { v, d }
         }
@@ -294,6 +348,15 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
                     let pa = N::restrict(a, 0.0, f64::INFINITY);
                     let la = N::un(U::Log, pa);
                     map3(|k| mul(v, add(mul(db[k], la), mul(b, div(da[k], pa)))))
+                }
+                B::Compare => map3(|k| N::flat_d(N::flat_d(v, da[k]), db[k])),
+                B::And => map3(|k| N::logic_d(true, a, b, da[k], db[k])),
+                B::Or => map3(|k| N::logic_d(false, a, b, da[k], db[k])),
+                B::Mod => {
+                    // v = a − |b|·⌊a/|b|⌋, so dv = da − q·db with the
+                    // (locally constant) q = (a − v)/b.
+                    let q = div(sub(a, v), b);
+                    map3(|k| sub(da[k], mul(q, db[k])))
                 }
             };
             Dual { v, d }

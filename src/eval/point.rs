@@ -10,6 +10,11 @@
 //!   negative, `log` of a non-positive (`log 0` is NaN, not `-∞`), division
 //!   by (either) zero, `pow` with a base `≤ 0`, `asin`/`acos` outside
 //!   `[-1, 1]`, `atan2(0, 0)`.
+//! * `floor ceil round` are `f64`'s (round: ties away from zero, as
+//!   Fidget); `not a` is 1 at `a = 0`, else 0; `compare a b` is −1/0/1;
+//!   `mod a b` is `a.rem_euclid(b)` (Fidget's `mod`, in `[0, |b|]`, NaN for
+//!   `b = 0`); `and a b` is `a` if `a == 0` else `b`; `or a b` is `a` if
+//!   `a != 0` else `b`.
 //! * NaN propagates through every op (`min`/`max` included, unlike
 //!   `f64::min`), with one exception fixed by the IR: `a^0 = 1` for every
 //!   `a`.
@@ -61,6 +66,18 @@ pub fn unary(op: UnOp, a: f64) -> f64 {
             }
         }
         UnOp::Atan => core_math::atan(a),
+        UnOp::Floor => a.floor(),
+        UnOp::Ceil => a.ceil(),
+        UnOp::Round => a.round(),
+        UnOp::Not => {
+            if a.is_nan() {
+                f64::NAN
+            } else if a == 0.0 {
+                1.0
+            } else {
+                0.0
+            }
+        }
     }
 }
 
@@ -103,6 +120,37 @@ pub fn binary(op: BinOp, a: f64, b: f64) -> f64 {
                 core_math::pow(a, b)
             } else {
                 f64::NAN
+            }
+        }
+        BinOp::Compare => {
+            if a.is_nan() || b.is_nan() {
+                f64::NAN
+            } else if a < b {
+                -1.0
+            } else if a > b {
+                1.0
+            } else {
+                0.0
+            }
+        }
+        // `%` is exact; NaN for b = 0 or an infinite a.
+        BinOp::Mod => a.rem_euclid(b),
+        BinOp::And => {
+            if a.is_nan() || b.is_nan() {
+                f64::NAN
+            } else if a == 0.0 {
+                a
+            } else {
+                b
+            }
+        }
+        BinOp::Or => {
+            if a.is_nan() || b.is_nan() {
+                f64::NAN
+            } else if a != 0.0 {
+                a
+            } else {
+                b
             }
         }
     }

@@ -24,6 +24,10 @@
 //!   result encloses the range over the part of the box inside the domain
 //!   (empty when there is none) and `defined` is false when the box leaves
 //!   the domain.
+//! * **Piecewise-constant and selecting ops** (`floor ceil round not
+//!   compare mod and or`, Fidget's) enclose the set of values exactly and
+//!   are continuous only when no jump can lie inside the box; see
+//!   [`discrete`].
 //! * **Integer powers** follow exact monotone rules: even `n` on an interval
 //!   straddling 0 starts at 0, odd `n` is increasing; each bound is computed
 //!   as an outward-rounded version of the *same* repeated-squaring chain the
@@ -79,6 +83,7 @@
 //! surfaces* (SIBGRAPI 2006), which uses these enclosures for the octree.
 
 pub mod arith;
+pub mod discrete;
 pub mod elementary;
 pub mod round;
 pub mod trig;
@@ -240,6 +245,10 @@ pub fn unary(op: UnOp, a: Interval) -> (Interval, bool) {
         UnOp::Asin => elementary::asin(a),
         UnOp::Acos => elementary::acos(a),
         UnOp::Atan => (elementary::atan(a), true),
+        UnOp::Floor => discrete::step_fn(a, f64::floor),
+        UnOp::Ceil => discrete::step_fn(a, f64::ceil),
+        UnOp::Round => discrete::step_fn(a, f64::round),
+        UnOp::Not => discrete::not(a),
     };
     (r, def && ok && !a.is_empty())
 }
@@ -257,6 +266,10 @@ pub fn binary(op: BinOp, a: Interval, b: Interval) -> (Interval, bool) {
         BinOp::Max => (arith::max(a, b), true),
         BinOp::Atan2 => elementary::atan2(a, b),
         BinOp::Pow => elementary::pow(a, b),
+        BinOp::Compare => discrete::compare(a, b),
+        BinOp::Mod => discrete::rem_euclid(a, b),
+        BinOp::And => discrete::and(a, b),
+        BinOp::Or => discrete::or(a, b),
     };
     (r, def && oka && okb && !a.is_empty() && !b.is_empty())
 }

@@ -21,6 +21,15 @@
 //! | `add sub mul div min max` | IEEE ops | outward rounded |
 //! | `atan2 y x` | correctly rounded | enclosure; `[-π, π]` across the branch cut |
 //! | `pow a b` | `exp(b·ln a)`, defined for `a > 0` | enclosure over the part of the box where `a > 0` |
+//! | `floor ceil round a` | `f64::floor/ceil/round` (round: ties away from 0) | `[f lo, f hi]`, continuous iff the two are equal |
+//! | `not a` | 1 if `a == 0`, else 0 | `[0,0]`, `[1,1]` or `[0,1]` (not continuous) |
+//! | `compare a b` | −1, 0, 1 as `a < b`, `a = b`, `a > b` | the possible signs; continuous only when one is certain |
+//! | `mod a b` | `a.rem_euclid(b)`, NaN for `b = 0` | `[0, max abs b]`, exact within one period of a constant `b` |
+//! | `and a b` / `or a b` | `a == 0 ? a : b` / `a != 0 ? a : b` | the chosen operand when the choice is certain, else the hull (not continuous) |
+//!
+//! The last five rows are Fidget's ops (for `.vm` models, [`crate::syntax::vm`]);
+//! unlike Fidget's point evaluator, a NaN operand gives NaN (the IR's rule
+//! that NaN propagates through every op).
 //!
 //! Outside an op's domain (sqrt of a negative, log of a non-positive, division
 //! by zero, `pow` of a non-positive base) the point value is NaN, and the
@@ -175,6 +184,14 @@ pub enum UnOp {
     Asin,
     Acos,
     Atan,
+    /// Largest integer `<= a`.
+    Floor,
+    /// Smallest integer `>= a`.
+    Ceil,
+    /// Nearest integer, ties away from zero (`f64::round`, Fidget's rule).
+    Round,
+    /// Logical not: 1 if `a == 0`, else 0 (NaN for NaN).
+    Not,
 }
 
 /// Operations of two arguments.
@@ -190,10 +207,19 @@ pub enum BinOp {
     Atan2,
     /// `pow(a, b) = exp(b·ln a)`, defined for `a > 0`.
     Pow,
+    /// `-1`, `0` or `1` as `a < b`, `a = b`, `a > b` (NaN if either is NaN).
+    Compare,
+    /// `a.rem_euclid(b)`: the least non-negative remainder, in `[0, |b|]`
+    /// (NaN for `b = 0`).
+    Mod,
+    /// Logical and: `a` if `a == 0`, else `b` (NaN if either is NaN).
+    And,
+    /// Logical or: `a` if `a != 0`, else `b` (NaN if either is NaN).
+    Or,
 }
 
 impl UnOp {
-    pub const ALL: [UnOp; 12] = [
+    pub const ALL: [UnOp; 16] = [
         UnOp::Neg,
         UnOp::Abs,
         UnOp::Sqrt,
@@ -206,6 +232,10 @@ impl UnOp {
         UnOp::Asin,
         UnOp::Acos,
         UnOp::Atan,
+        UnOp::Floor,
+        UnOp::Ceil,
+        UnOp::Round,
+        UnOp::Not,
     ];
 
     /// The op's name in the text form.
@@ -223,12 +253,16 @@ impl UnOp {
             UnOp::Asin => "asin",
             UnOp::Acos => "acos",
             UnOp::Atan => "atan",
+            UnOp::Floor => "floor",
+            UnOp::Ceil => "ceil",
+            UnOp::Round => "round",
+            UnOp::Not => "not",
         }
     }
 }
 
 impl BinOp {
-    pub const ALL: [BinOp; 8] = [
+    pub const ALL: [BinOp; 12] = [
         BinOp::Add,
         BinOp::Sub,
         BinOp::Mul,
@@ -237,6 +271,10 @@ impl BinOp {
         BinOp::Max,
         BinOp::Atan2,
         BinOp::Pow,
+        BinOp::Compare,
+        BinOp::Mod,
+        BinOp::And,
+        BinOp::Or,
     ];
 
     /// The op's name in the text form.
@@ -250,6 +288,10 @@ impl BinOp {
             BinOp::Max => "max",
             BinOp::Atan2 => "atan2",
             BinOp::Pow => "pow",
+            BinOp::Compare => "compare",
+            BinOp::Mod => "mod",
+            BinOp::And => "and",
+            BinOp::Or => "or",
         }
     }
 

@@ -91,11 +91,12 @@ pub fn binary(b: &mut Builder, op: BinOp, x: Value, y: Value) -> Option<Value> {
             None
         }
         BinOp::Div => is_num(b, y, 1.0).then_some(x),
-        BinOp::Min | BinOp::Max => (x == y).then_some(x),
+        // `and a a = or a a = a` for every `a` (NaN included).
+        BinOp::Min | BinOp::Max | BinOp::And | BinOp::Or => (x == y).then_some(x),
         // `pow(a, c)` is `exp(c·ln a)`, NaN for a < 0 even when c is an
         // integer: it is *not* `powi`. The language's `^` picks `powi` for
         // integer constants before it gets here ([`Builder::power`]).
-        BinOp::Pow | BinOp::Atan2 => None,
+        BinOp::Pow | BinOp::Atan2 | BinOp::Compare | BinOp::Mod => None,
     }
 }
 

@@ -113,10 +113,7 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
     let flags_in: [Flag; 4] = input.map(|(_, f)| f);
     let input: [Iv; 4] = input.map(|(iv, _)| iv);
     let zero = env.b.ins().f64const(0.0);
-    let one = (
-        env.b.ins().f64const(-1.0),
-        env.b.ins().f64const(1.0),
-    );
+    let one = (env.b.ins().f64const(-1.0), env.b.ins().f64const(1.0));
     let full = |g: G| -> Dual {
         [
             g.v,
@@ -232,10 +229,11 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
                 );
                 let zero = env.b.ins().f64const(0.0);
                 let t_lo = env.b.ins().fneg(t.0);
-                let pos = env
-                    .b
-                    .ins()
-                    .fcmp(cranelift_codegen::ir::condcodes::FloatCC::GreaterThan, t_lo, zero);
+                let pos = env.b.ins().fcmp(
+                    cranelift_codegen::ir::condcodes::FloatCC::GreaterThan,
+                    t_lo,
+                    zero,
+                );
                 let d = a.d.map(|c| match c {
                     D::Zero => D::Zero,
                     c => D::V(div_by_positive(env, iv_of(c, zero, one), t, t_lo, pos)),

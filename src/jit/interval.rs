@@ -193,7 +193,13 @@ pub(super) fn binary(env: &mut Env, op: BinOp, a: Iv, bv: Iv) -> (Iv, Option<Val
         BinOp::Mul => (mul(env, a, bv), None),
         BinOp::Min => ((b.ins().fmax(a.0, bv.0), b.ins().fmin(a.1, bv.1)), None),
         BinOp::Max => ((b.ins().fmin(a.0, bv.0), b.ins().fmax(a.1, bv.1)), None),
-        BinOp::Div | BinOp::Atan2 | BinOp::Pow => env.call_iv_binary(op, a, bv),
+        BinOp::Div
+        | BinOp::Atan2
+        | BinOp::Pow
+        | BinOp::Compare
+        | BinOp::Mod
+        | BinOp::And
+        | BinOp::Or => env.call_iv_binary(op, a, bv),
     }
 }
 

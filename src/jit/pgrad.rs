@@ -191,7 +191,7 @@ fn binary(env: &mut Env, op: BinOp, a: Dual, b: Dual) -> Dual {
                 r[k] = env.b.ins().select(second, b[k], a[k]);
             }
         }
-        BinOp::Atan2 | BinOp::Pow => {
+        BinOp::Atan2 | BinOp::Pow | BinOp::Compare | BinOp::Mod | BinOp::And | BinOp::Or => {
             r = call_pg(env, helpers::binop_code(op) + PG_BINARY_BASE, a, Some(b));
         }
     }

@@ -44,7 +44,12 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [Value; 4]) -> Value {
                     BinOp::Div => div_nan(env, a, b),
                     BinOp::Min => ins.fmin(a, b),
                     BinOp::Max => ins.fmax(a, b),
-                    BinOp::Atan2 | BinOp::Pow => env.call_pt_binary(op, a, b),
+                    BinOp::Atan2
+                    | BinOp::Pow
+                    | BinOp::Compare
+                    | BinOp::Mod
+                    | BinOp::And
+                    | BinOp::Or => env.call_pt_binary(op, a, b),
                 }
             }
             Op::Powi(a, n) => {

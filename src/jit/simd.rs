@@ -159,7 +159,12 @@ fn lower(env: &mut Env, prog: &Program, input: [Value; 4]) -> Value {
                     BinOp::Div => div_nan(env, a, b),
                     BinOp::Min => ins.fmin(a, b),
                     BinOp::Max => ins.fmax(a, b),
-                    BinOp::Atan2 | BinOp::Pow => {
+                    BinOp::Atan2
+                    | BinOp::Pow
+                    | BinOp::Compare
+                    | BinOp::Mod
+                    | BinOp::And
+                    | BinOp::Or => {
                         let [a0, a1] = lanes(env, a);
                         let [b0, b1] = lanes(env, b);
                         let r0 = env.call_pt_binary(op, a0, b0);

@@ -119,6 +119,7 @@ impl Sink for F64 {
             UnOp::Asin => a.asin(),
             UnOp::Acos => a.acos(),
             UnOp::Atan => a.atan(),
+            UnOp::Floor | UnOp::Ceil | UnOp::Round | UnOp::Not => crate::eval::point::unary(op, a),
         }
     }
     fn binary(&mut self, op: BinOp, a: f64, b: f64) -> f64 {
@@ -131,6 +132,9 @@ impl Sink for F64 {
             BinOp::Max => a.max(b),
             BinOp::Atan2 => a.atan2(b),
             BinOp::Pow => self.power(a, b),
+            BinOp::Compare | BinOp::Mod | BinOp::And | BinOp::Or => {
+                crate::eval::point::binary(op, a, b)
+            }
         }
     }
     fn power(&mut self, a: f64, b: f64) -> f64 {

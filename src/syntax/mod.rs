@@ -8,6 +8,8 @@
 //! position, at most [`MAX_DIAGNOSTICS`]). [`emit_ast`] stops after parsing
 //! and prints the AST. [`source_from_bytes`] turns raw file bytes into the
 //! source string, reporting invalid UTF-8 with its location.
+//! [`front_end_for`] and [`emit_ast_for`] choose the language by the file
+//! name: `.vm` files are Fidget's text-SSA models, read by [`vm`].
 //!
 //! # Layout
 //!
@@ -16,7 +18,8 @@
 //! - [`ast`]: the arena AST and its printer;
 //! - [`resolve`]: names, semantic checks, constants (params, domain);
 //! - [`lower`]: inlining and lowering to [`crate::ir`];
-//! - [`diag`]: rendering diagnostics, "did you mean".
+//! - [`diag`]: rendering diagnostics, "did you mean";
+//! - [`vm`]: the `.vm` reader (SPEC §1.1).
 
 pub mod ast;
 pub mod diag;
@@ -24,6 +27,7 @@ pub mod lexer;
 pub mod lower;
 pub mod parser;
 pub mod resolve;
+pub mod vm;
 
 use crate::error::{Diagnostic, Error};
 use crate::ir::Program;
@@ -52,32 +56,8 @@ pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowe
     if !diags.is_empty() {
         return Err(source_error(file, source, diags));
     }
-    for (name, v) in &opts.params {
-        if !v.is_finite() {
-            return Err(Error::Usage(format!(
-                "--set {name}={v}: the value must be a finite number"
-            )));
-        }
-        if !r.params.iter().any(|(p, _)| p == name) {
-            let known: Vec<&str> = r.params.iter().map(|(p, _)| p.as_str()).collect();
-            let hint = match diag::closest(name, known.iter().copied()) {
-                Some(c) => format!(" (did you mean `{c}`?)"),
-                None if known.is_empty() => " (the file has no params)".to_string(),
-                None => format!(" (the file's params: {})", known.join(", ")),
-            };
-            return Err(Error::Usage(format!(
-                "--set {name}=…: `{name}` is not a param of {file}{hint}"
-            )));
-        }
-    }
-    if let Some(d) = opts.domain
-        && !(0..3).all(|i| d.lo[i].is_finite() && d.hi[i].is_finite() && d.lo[i] < d.hi[i])
-    {
-        return Err(Error::Usage(format!(
-            "--domain: every range must be finite and non-empty, got [{}, {}] x [{}, {}] x [{}, {}]",
-            d.lo[0], d.hi[0], d.lo[1], d.hi[1], d.lo[2], d.hi[2]
-        )));
-    }
+    check_params(file, &r.params, opts)?;
+    check_domain(opts)?;
     let domain = match (opts.domain, r.domain) {
         (Some(d), _) | (None, Some(d)) => d,
         (None, None) => {
@@ -111,6 +91,66 @@ pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowe
         domain,
         params: r.params,
     })
+}
+
+/// Checks the `--set` overrides against the file's params: every value
+/// finite, every name a param of the file.
+pub(crate) fn check_params(
+    file: &str,
+    params: &[(String, f64)],
+    opts: &CompileOptions,
+) -> Result<(), Error> {
+    for (name, v) in &opts.params {
+        if !v.is_finite() {
+            return Err(Error::Usage(format!(
+                "--set {name}={v}: the value must be a finite number"
+            )));
+        }
+        if !params.iter().any(|(p, _)| p == name) {
+            let known: Vec<&str> = params.iter().map(|(p, _)| p.as_str()).collect();
+            let hint = match diag::closest(name, known.iter().copied()) {
+                Some(c) => format!(" (did you mean `{c}`?)"),
+                None if known.is_empty() => " (the file has no params)".to_string(),
+                None => format!(" (the file's params: {})", known.join(", ")),
+            };
+            return Err(Error::Usage(format!(
+                "--set {name}=…: `{name}` is not a param of {file}{hint}"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Checks `--domain` (every range finite and non-empty) and returns it.
+pub(crate) fn check_domain(opts: &CompileOptions) -> Result<Option<Bounds>, Error> {
+    if let Some(d) = opts.domain
+        && !(0..3).all(|i| d.lo[i].is_finite() && d.hi[i].is_finite() && d.lo[i] < d.hi[i])
+    {
+        return Err(Error::Usage(format!(
+            "--domain: every range must be finite and non-empty, got [{}, {}] x [{}, {}] x [{}, {}]",
+            d.lo[0], d.hi[0], d.lo[1], d.hi[1], d.lo[2], d.hi[2]
+        )));
+    }
+    Ok(opts.domain)
+}
+
+/// The front end for `file`, chosen by its extension: `.vm` → [`vm`]
+/// (Fidget's text-SSA models), anything else → `.iso` ([`front_end`]).
+pub fn front_end_for(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowered, Error> {
+    if vm::is_vm_file(file) {
+        vm::front_end(source, file, opts)
+    } else {
+        front_end(source, file, opts)
+    }
+}
+
+/// `--emit ast` for `file`, chosen by its extension as [`front_end_for`].
+pub fn emit_ast_for(source: &str, file: &str) -> Result<String, Error> {
+    if vm::is_vm_file(file) {
+        vm::emit_ast(source, file)
+    } else {
+        emit_ast(source, file)
+    }
 }
 
 /// Parses `source` and prints its AST (`isoc compile --emit ast`): one
@@ -149,7 +189,7 @@ pub fn source_from_bytes(bytes: &[u8], file: &str) -> Result<String, Error> {
     Err(source_error(file, &text, diags))
 }
 
-fn source_error(file: &str, source: &str, mut diags: Vec<Diagnostic>) -> Error {
+pub(crate) fn source_error(file: &str, source: &str, mut diags: Vec<Diagnostic>) -> Error {
     diags.sort_by_key(|d| (d.span.start, d.span.end));
     if diags.len() > MAX_DIAGNOSTICS {
         let n = diags.len();

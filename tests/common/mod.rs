@@ -14,6 +14,7 @@
 #![allow(dead_code, clippy::needless_range_loop)]
 
 pub mod exact;
+pub mod vmref;
 
 use isoc::eval::{Evaluator, Reference, grad, point};
 use isoc::interval::Interval;

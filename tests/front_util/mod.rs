@@ -75,6 +75,10 @@ pub fn eval(p: &Program, input: [f64; 4]) -> f64 {
                     UnOp::Asin => a.asin(),
                     UnOp::Acos => a.acos(),
                     UnOp::Atan => a.atan(),
+                    UnOp::Floor => a.floor(),
+                    UnOp::Ceil => a.ceil(),
+                    UnOp::Round => a.round(),
+                    UnOp::Not => (a == 0.0) as u8 as f64,
                 }
             }
             Op::Binary(b, x, y) => {
@@ -92,6 +96,22 @@ pub fn eval(p: &Program, input: [f64; 4]) -> f64 {
                             a.powf(c)
                         } else {
                             f64::NAN
+                        }
+                    }
+                    BinOp::Compare => a.partial_cmp(&c).map_or(f64::NAN, |o| o as i8 as f64),
+                    BinOp::Mod => a.rem_euclid(c),
+                    BinOp::And => {
+                        if a == 0.0 {
+                            a
+                        } else {
+                            c
+                        }
+                    }
+                    BinOp::Or => {
+                        if a != 0.0 {
+                            a
+                        } else {
+                            c
                         }
                     }
                 }

@@ -74,6 +74,10 @@ pub fn to_fidget(prog: &Program, t: f64) -> Result<(Context, Node), String> {
                     UnOp::Asin => ctx.asin(a),
                     UnOp::Acos => ctx.acos(a),
                     UnOp::Atan => ctx.atan(a),
+                    UnOp::Floor => ctx.floor(a),
+                    UnOp::Ceil => ctx.ceil(a),
+                    UnOp::Round => ctx.round(a),
+                    UnOp::Not => ctx.not(a),
                 }
                 .map_err(e)?
             }
@@ -92,6 +96,10 @@ pub fn to_fidget(prog: &Program, t: f64) -> Result<(Context, Node), String> {
                         let m = ctx.mul(c, l).map_err(e)?;
                         ctx.exp(m)
                     }
+                    BinOp::Compare => ctx.compare(a, c),
+                    BinOp::Mod => ctx.modulo(a, c),
+                    BinOp::And => ctx.and(a, c),
+                    BinOp::Or => ctx.or(a, c),
                 }
                 .map_err(e)?
             }
