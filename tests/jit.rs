@@ -965,8 +965,8 @@ fn a_40000_term_sum_compiles_and_evaluates() {
             assert!(r.iv.lo <= v && v <= r.iv.hi, "{v} ∉ {:?}", r.iv);
             assert!(g.value.lo <= v && v <= g.value.hi);
             let (_, d) = s.point_grad([p[0], p[1], p[2], 0.0]);
-            for c in 0..3 {
-                assert!(g.grad[c].lo <= d[c] && d[c] <= g.grad[c].hi);
+            for (gc, dc) in g.grad.iter().zip(d) {
+                assert!(gc.lo <= dc && dc <= gc.hi);
             }
         }
     }
