@@ -56,7 +56,10 @@ proptest! {
             UnOp::Sqrt | UnOp::Log => x > 0.05,
             UnOp::Asin | UnOp::Acos => x.abs() < 0.95,
             UnOp::Tan => x.cos().abs() > 0.1,
-            UnOp::Abs => x.abs() > 0.01,
+            UnOp::Abs | UnOp::Not => x.abs() > 0.01,
+            // Away from the jumps.
+            UnOp::Floor | UnOp::Ceil => (x - x.round()).abs() > 0.01,
+            UnOp::Round => ((x - x.floor()) - 0.5).abs() > 0.01,
             _ => true,
         };
         if !safe {
@@ -79,6 +82,11 @@ proptest! {
             BinOp::Min | BinOp::Max => (x - y).abs() > 0.01,
             BinOp::Atan2 => x.hypot(y) > 0.1 && !(y < 0.0 && x.abs() < 0.05),
             BinOp::Pow => x > 0.1,
+            BinOp::Compare => (x - y).abs() > 0.01,
+            // The choice of operand flips at x = 0.
+            BinOp::And | BinOp::Or => x.abs() > 0.01,
+            // Away from b = 0 and from the jumps at integer x/y.
+            BinOp::Mod => y.abs() > 0.1 && ((x / y) - (x / y).round()).abs() > 0.01,
             _ => true,
         };
         if !safe {

@@ -4,10 +4,14 @@
 //! Each IR value becomes four intervals `(F, Fx, Fy, Fz)` (eight f64 SSA
 //! values); `var x` is `(X, [1,1], [0,0], [0,0])` (likewise `y`, `z`; `t`
 //! has a zero gradient), constants have a zero gradient. `add sub neg mul
-//! square` and `var`/`const` are inline, with the interval kernel's outward
-//! rounded rules ([`super::interval`]); every other op spills its operands
-//! to a stack slot and calls a chain-rule helper ([`super::helpers`]) built
-//! on [`crate::interval`]'s enclosures.
+//! square abs sqrt min max`, `powi` with `0 < n ≤ 8` and `var`/`const` are
+//! inline, with the interval kernel's outward rounded rules
+//! ([`super::interval`]) and the reference's derivative rules
+//! ([`crate::eval::grad`]: `abs`, `min`, `max` take the derivative of the
+//! certain branch or the hull, flagged not differentiable; `d√a = da/(2√a)`,
+//! flagged where `2√a` may be 0); every other op spills its operands to a
+//! stack slot and calls a chain-rule helper ([`super::helpers`]) built on
+//! [`crate::interval`]'s enclosures.
 //!
 //! Derivative components known at compile time to be exactly 0 or 1 (of
 //! constants and variables, and what inline rules make of them) emit no
@@ -21,6 +25,7 @@
 //! flag: `a^0` has derivative 0 whatever `a`'s derivatives were, so only
 //! `a`'s value flag reaches it.
 
+use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{InstBuilder, Value, types};
 
 use super::interval::{self, Flag, Iv};
@@ -95,7 +100,6 @@ fn neg((n, h): Iv) -> Iv {
 /// `−lo = n_x / (n_x ≤ 0 ? t_hi : t_lo)`); the whole line when `t` may
 /// reach 0.
 fn div_by_positive(env: &mut Env, x: Iv, t: Iv, t_lo: Value, pos: Value) -> Iv {
-    use cranelift_codegen::ir::condcodes::FloatCC;
     let b = &mut env.b;
     let zero = b.ins().f64const(0.0);
     let h_nonneg = b.ins().fcmp(FloatCC::GreaterThanOrEqual, x.1, zero);
@@ -106,6 +110,22 @@ fn div_by_positive(env: &mut Env, x: Iv, t: Iv, t_lo: Value, pos: Value) -> Iv {
     let n = b.ins().fdiv(x.0, yn);
     let inf = b.ins().f64const(f64::INFINITY);
     (b.ins().select(pos, n, inf), b.ins().select(pos, h, inf))
+}
+
+/// `c ? x : y` on intervals.
+fn select_iv(env: &mut Env, c: Value, x: Iv, y: Iv) -> Iv {
+    (
+        env.b.ins().select(c, x.0, y.0),
+        env.b.ins().select(c, x.1, y.1),
+    )
+}
+
+/// An inline rule's own flags in the helpers' encoding: bit 0 the value's
+/// (`None`: true), bit 1 the derivatives' (an i8, 0 or 1).
+fn own_flags(env: &mut Env, value: Option<Value>, deriv: Value) -> Value {
+    let fv = value.unwrap_or_else(|| env.b.ins().iconst(types::I8, 1));
+    let dv = env.b.ins().ishl_imm_u(deriv, 1);
+    env.b.ins().bor(fv, dv)
 }
 
 /// Emits the body; returns the output tuple and the decoration (i8).
@@ -218,6 +238,60 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
                 };
                 (G { v, d, k: None }, None)
             }
+            Op::Unary(UnOp::Abs, a) => {
+                // The reference's rule: `da` where a > 0, `−da` where
+                // a < 0, else `[−m, m]` with `m = max |da|`, not
+                // differentiable.
+                let a = vals[a.index()].0;
+                let (v, _) = interval::unary(env, UnOp::Abs, a.v);
+                let zero = env.b.ins().f64const(0.0);
+                let lo = env.b.ins().fneg(a.v.0);
+                let pos = env.b.ins().fcmp(FloatCC::GreaterThan, lo, zero);
+                let neg_ = env.b.ins().fcmp(FloatCC::LessThan, a.v.1, zero);
+                let sure = env.b.ins().bor(pos, neg_);
+                let d = a.d.map(|c| match c {
+                    D::Zero => D::Zero,
+                    c => {
+                        let x = iv_of(c, zero, one);
+                        let m = env.b.ins().fmax(x.0, x.1);
+                        let nx = neg(x);
+                        let r = select_iv(env, neg_, nx, (m, m));
+                        D::V(select_iv(env, pos, x, r))
+                    }
+                });
+                (G { v, d, k: None }, Some(own_flags(env, None, sure)))
+            }
+            Op::Binary(op @ (BinOp::Min | BinOp::Max), a, b) => {
+                // The reference's rule: the derivative of the operand
+                // that is certainly chosen, else the hull of both, not
+                // differentiable.
+                let (a, b) = (vals[a.index()].0, vals[b.index()].0);
+                let (v, _) = interval::binary(env, op, a.v, b.v);
+                let (lo_a, lo_b) = (env.b.ins().fneg(a.v.0), env.b.ins().fneg(b.v.0));
+                let (first, second) = if op == BinOp::Min {
+                    (
+                        env.b.ins().fcmp(FloatCC::LessThan, a.v.1, lo_b),
+                        env.b.ins().fcmp(FloatCC::LessThan, b.v.1, lo_a),
+                    )
+                } else {
+                    (
+                        env.b.ins().fcmp(FloatCC::GreaterThan, lo_a, b.v.1),
+                        env.b.ins().fcmp(FloatCC::GreaterThan, lo_b, a.v.1),
+                    )
+                };
+                let sure = env.b.ins().bor(first, second);
+                let zero = env.b.ins().f64const(0.0);
+                let d = std::array::from_fn(|k| match (a.d[k], b.d[k]) {
+                    (D::Zero, D::Zero) => D::Zero,
+                    (x, y) => {
+                        let (x, y) = (iv_of(x, zero, one), iv_of(y, zero, one));
+                        let hull = (env.b.ins().fmax(x.0, y.0), env.b.ins().fmax(x.1, y.1));
+                        let r = select_iv(env, second, y, hull);
+                        D::V(select_iv(env, first, x, r))
+                    }
+                });
+                (G { v, d, k: None }, Some(own_flags(env, None, sure)))
+            }
             Op::Unary(UnOp::Sqrt, a) => {
                 // d√a = da / (2√a), the reference's rule, inline: value
                 // flag "a ≥ 0 on the box", derivative flag "2√a > 0".
@@ -238,10 +312,7 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (D
                     D::Zero => D::Zero,
                     c => D::V(div_by_positive(env, iv_of(c, zero, one), t, t_lo, pos)),
                 });
-                let fv = fv.unwrap_or_else(|| env.b.ins().iconst(types::I8, 1));
-                let dv = env.b.ins().ishl_imm_u(pos, 1);
-                let r = env.b.ins().bor(fv, dv);
-                (G { v, d, k: None }, Some(r))
+                (G { v, d, k: None }, Some(own_flags(env, fv, pos)))
             }
             Op::Unary(u, a) => {
                 let (r, d) = env.call_gd(
