@@ -253,6 +253,12 @@ fn main() {
     eprintln!("total {:.1} s", started.elapsed().as_secs_f64());
 }
 
+/// The size of rayon's global pool (which both meshers use): the
+/// `RAYON_NUM_THREADS` rayon honours, else the machine's parallelism.
 fn rayon_threads() -> usize {
-    std::thread::available_parallelism().map_or(1, |n| n.get())
+    std::env::var("RAYON_NUM_THREADS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .filter(|&n| n > 0)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
