@@ -10,7 +10,7 @@
 //! | bound | computed as |
 //! |---|---|
 //! | upper `RU(a ∘ b)` | `a ∘ b` |
-//! | lower `RD(a + b)` | `−((−a) − b)` |
+//! | lower `RD(a + b)` | `−((−a) + (−b))` — with intervals held as `(−lo, hi)` ([`super::interval`]) just `(−a) + (−b)` |
 //! | lower `RD(a · b)` | `−((−a) · b)` |
 //! | lower `RD(√a)` | `r = √a`; `pred(r)` if `r·r > a` (rounded up, so exactly when `r² > a`), else `r` |
 //!
@@ -50,24 +50,6 @@ use cranelift_frontend::FunctionBuilder;
 /// `RU(x + y)`.
 pub fn add_up(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
     b.ins().fadd(x, y)
-}
-
-/// `RD(x + y) = −RU(−x − y)`.
-pub fn add_down(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
-    let nx = b.ins().fneg(x);
-    let s = b.ins().fsub(nx, y);
-    b.ins().fneg(s)
-}
-
-/// `RU(x − y)`.
-pub fn sub_up(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
-    b.ins().fsub(x, y)
-}
-
-/// `RD(x − y) = −RU(y − x)`.
-pub fn sub_down(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
-    let s = b.ins().fsub(y, x);
-    b.ins().fneg(s)
 }
 
 /// `RU(x · y)`.
