@@ -354,20 +354,16 @@ impl Kernels {
 
     /// Enclosure of `f` over the box `[x, y, z, t]`.
     pub fn interval(&self, input: [Interval; 4]) -> DecInterval {
-        let Ok(k) = self.interval_k() else {
-            return crate::eval::interval::eval(&self.program, input);
-        };
-        let inp = flatten(input);
         let mut out = [0.0; 2];
-        let mut d = 0u8;
-        // SAFETY: one record: `inp` holds 8 f64, `out` 2, `d` 1 byte.
-        unsafe { (k.batch)(inp.as_ptr(), out.as_mut_ptr(), &mut d, 1) };
+        let mut d = [false];
+        self.interval_batch(&flatten(input), &mut out, &mut d)
+            .expect("one record");
         DecInterval {
             iv: Interval {
                 lo: out[0],
                 hi: out[1],
             },
-            defined: d != 0,
+            defined: d[0],
         }
     }
 
@@ -379,41 +375,20 @@ impl Kernels {
         out: &mut [f64],
         defined: &mut [bool],
     ) -> Result<(), JitError> {
-        let n = check_box_batch(input, out, defined, 2)?;
-        match self.interval_k() {
-            // SAFETY: lengths checked above; the kernel writes only 0 or 1
-            // into `defined`, valid `bool` values.
-            Ok(k) => unsafe {
-                (k.batch)(
-                    input.as_ptr(),
-                    out.as_mut_ptr(),
-                    defined.as_mut_ptr().cast::<u8>(),
-                    n as u64,
-                )
-            },
-            Err(_) => {
-                for i in 0..n {
-                    let r = crate::eval::interval::eval(&self.program, unflatten(&input[8 * i..]));
-                    out[2 * i] = r.iv.lo;
-                    out[2 * i + 1] = r.iv.hi;
-                    defined[i] = r.defined;
-                }
-            }
-        }
-        Ok(())
+        box_batch(self.interval_k(), input, out, defined, 2, |b, o| {
+            let r = crate::eval::interval::eval(&self.program, b);
+            o.copy_from_slice(&[r.iv.lo, r.iv.hi]);
+            r.defined
+        })
     }
 
     /// `(F, ∂F/∂x, ∂F/∂y, ∂F/∂z)` enclosed over the box `[x, y, z, t]`.
     pub fn grad(&self, input: [Interval; 4]) -> GradEval {
-        let Ok(k) = self.grad_k() else {
-            return crate::eval::grad::eval(&self.program, input);
-        };
-        let inp = flatten(input);
         let mut out = [0.0; 8];
-        let mut d = 0u8;
-        // SAFETY: one record: `inp` holds 8 f64, `out` 8, `d` 1 byte.
-        unsafe { (k.batch)(inp.as_ptr(), out.as_mut_ptr(), &mut d, 1) };
-        grad_record(&out, d != 0)
+        let mut d = [false];
+        self.grad_batch(&flatten(input), &mut out, &mut d)
+            .expect("one record");
+        grad_record(&out, d[0])
     }
 
     /// Batch gradient: `input` `n` records of 8 f64, `out` `n` records of 8
@@ -424,30 +399,14 @@ impl Kernels {
         out: &mut [f64],
         defined: &mut [bool],
     ) -> Result<(), JitError> {
-        let n = check_box_batch(input, out, defined, 8)?;
-        match self.grad_k() {
-            // SAFETY: as in `interval_batch`.
-            Ok(k) => unsafe {
-                (k.batch)(
-                    input.as_ptr(),
-                    out.as_mut_ptr(),
-                    defined.as_mut_ptr().cast::<u8>(),
-                    n as u64,
-                )
-            },
-            Err(_) => {
-                for i in 0..n {
-                    let g = crate::eval::grad::eval(&self.program, unflatten(&input[8 * i..]));
-                    let o = &mut out[8 * i..8 * i + 8];
-                    for (k, iv) in std::iter::once(g.value).chain(g.grad).enumerate() {
-                        o[2 * k] = iv.lo;
-                        o[2 * k + 1] = iv.hi;
-                    }
-                    defined[i] = g.defined;
-                }
+        box_batch(self.grad_k(), input, out, defined, 8, |b, o| {
+            let g = crate::eval::grad::eval(&self.program, b);
+            for (k, iv) in std::iter::once(g.value).chain(g.grad).enumerate() {
+                o[2 * k] = iv.lo;
+                o[2 * k + 1] = iv.hi;
             }
-        }
-        Ok(())
+            g.defined
+        })
     }
 
     /// `f` and `(∂f/∂x, ∂f/∂y, ∂f/∂z)` at `[x, y, z, t]`, as
@@ -539,6 +498,42 @@ fn grad_record(out: &[f64], defined: bool) -> GradEval {
         grad: [iv(1), iv(2), iv(3)],
         defined,
     }
+}
+
+/// Runs a box kernel (`k`) over the records of `input`, or, when it is not
+/// compiled, `interp` on each box, which writes the `stride` f64 of its
+/// output record and returns the flag.
+fn box_batch(
+    k: Result<&Entry<(), BoxBatchFn>, JitError>,
+    input: &[f64],
+    out: &mut [f64],
+    defined: &mut [bool],
+    stride: usize,
+    interp: impl Fn([Interval; 4], &mut [f64]) -> bool,
+) -> Result<(), JitError> {
+    let n = check_box_batch(input, out, defined, stride)?;
+    match k {
+        // SAFETY: lengths checked above (`n` records of 8 f64 in, `stride`
+        // out, `n` flags); the kernel writes only 0 or 1 into `defined`,
+        // valid `bool` values, and reads the pool its `Kernels` keeps.
+        Ok(k) => unsafe {
+            (k.batch)(
+                input.as_ptr(),
+                out.as_mut_ptr(),
+                defined.as_mut_ptr().cast::<u8>(),
+                n as u64,
+            )
+        },
+        Err(_) => {
+            for (i, d) in defined.iter_mut().enumerate() {
+                *d = interp(
+                    unflatten(&input[8 * i..]),
+                    &mut out[stride * i..stride * (i + 1)],
+                );
+            }
+        }
+    }
+    Ok(())
 }
 
 fn check_box_batch(
