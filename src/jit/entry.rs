@@ -91,14 +91,18 @@ pub(super) fn emit_entry(
                     let a = env.b.ins().iadd(params[k], off);
                     env.b.ins().load(types::F64, f, a, 0)
                 });
-                let r = point::lower(env, prog, [x, y, z, params[3]]);
+                let r = point::lower::<point::Scalar>(env, prog, [x, y, z, params[3]]);
                 let oa = env.b.ins().iadd(params[4], off);
                 env.b.ins().store(f, r, oa, 0);
             });
             env.b.ins().return_(&[]);
         }
         Kind::Point => {
-            let r = point::lower(env, prog, [params[0], params[1], params[2], params[3]]);
+            let r = point::lower::<point::Scalar>(
+                env,
+                prog,
+                [params[0], params[1], params[2], params[3]],
+            );
             env.b.ins().return_(&[r]);
         }
         Kind::Interval | Kind::Grad => emit_box_batch(env, prog, kind, &params),

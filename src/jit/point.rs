@@ -2,9 +2,13 @@
 //!
 //! `neg abs sqrt square add sub mul div min max powi` are inline IEEE
 //! operations (with the IR's NaN rules: `a / ±0` is NaN, `min`/`max`
-//! propagate NaN); `exp log sin cos tan asin acos atan atan2 pow` call the
-//! reference evaluator's per-op functions through [`super::helpers`], so the
+//! propagate NaN); every other op (`exp log sin … atan2 pow` and the `.vm`
+//! ops) calls the reference evaluator's per-op functions through [`super::helpers`], so the
 //! JIT's point values are bit for bit the interpreter's.
+//!
+//! The op table is written once ([`lower`]) for both the scalar body and
+//! the `F64X2` body of the batch loop ([`super::simd`]), generic over
+//! [`Width`].
 //!
 //! `powi a n` is computed by right-to-left binary exponentiation: the
 //! running product starts at the lowest set bit's power of `a` and each
@@ -17,13 +21,48 @@ use cranelift_codegen::ir::{InstBuilder, Value};
 use super::Env;
 use crate::ir::{BinOp, Op, Program, UnOp};
 
-/// Emits the body; returns the output value.
-pub(super) fn lower(env: &mut Env, prog: &Program, input: [Value; 4]) -> Value {
+/// What differs between the scalar body and the `F64X2` body
+/// ([`super::simd`]): how a pool constant enters, how `a / ±0 = NaN` is
+/// selected, and how a helper op is called. Every inline op is the same
+/// Cranelift instruction at either width (the instructions are
+/// polymorphic over the lane count), so the op table below is written
+/// once for both.
+pub(super) trait Width {
+    /// Entry 0 (the point value) of instruction `i`'s pool record.
+    fn constant(env: &mut Env, i: usize) -> Value;
+    /// `a / b`, NaN where `b` is ±0.
+    fn div_nan(env: &mut Env, a: Value, b: Value) -> Value;
+    /// A unary op computed by its helper.
+    fn unary_helper(env: &mut Env, u: UnOp, a: Value) -> Value;
+    /// A binary op computed by its helper.
+    fn binary_helper(env: &mut Env, op: BinOp, a: Value, b: Value) -> Value;
+}
+
+/// One f64 per value: the single-point kernel and the scalar batch loop.
+pub(super) struct Scalar;
+
+impl Width for Scalar {
+    fn constant(env: &mut Env, i: usize) -> Value {
+        env.pool_load(i, 0)
+    }
+    fn div_nan(env: &mut Env, a: Value, b: Value) -> Value {
+        div_nan(env, a, b)
+    }
+    fn unary_helper(env: &mut Env, u: UnOp, a: Value) -> Value {
+        env.call_pt_unary(u, a)
+    }
+    fn binary_helper(env: &mut Env, op: BinOp, a: Value, b: Value) -> Value {
+        env.call_pt_binary(op, a, b)
+    }
+}
+
+/// Emits the body at width `W`; returns the output value.
+pub(super) fn lower<W: Width>(env: &mut Env, prog: &Program, input: [Value; 4]) -> Value {
     let mut vals: Vec<Value> = Vec::with_capacity(prog.len());
     for (i, op) in prog.insts.iter().enumerate() {
         let v = match *op {
             Op::Var(var) => input[var.index()],
-            Op::Const(_) => env.pool_load(i, 0),
+            Op::Const(_) => W::constant(env, i),
             Op::Unary(u, a) => {
                 let a = vals[a.index()];
                 match u {
@@ -31,36 +70,30 @@ pub(super) fn lower(env: &mut Env, prog: &Program, input: [Value; 4]) -> Value {
                     UnOp::Abs => env.b.ins().fabs(a),
                     UnOp::Sqrt => env.b.ins().sqrt(a),
                     UnOp::Square => env.b.ins().fmul(a, a),
-                    _ => env.call_pt_unary(u, a),
+                    _ => W::unary_helper(env, u, a),
                 }
             }
             Op::Binary(op, a, b) => {
                 let (a, b) = (vals[a.index()], vals[b.index()]);
-                let ins = env.b.ins();
                 match op {
-                    BinOp::Add => ins.fadd(a, b),
-                    BinOp::Sub => ins.fsub(a, b),
-                    BinOp::Mul => ins.fmul(a, b),
-                    BinOp::Div => div_nan(env, a, b),
-                    BinOp::Min => ins.fmin(a, b),
-                    BinOp::Max => ins.fmax(a, b),
-                    BinOp::Atan2
-                    | BinOp::Pow
-                    | BinOp::Compare
-                    | BinOp::Mod
-                    | BinOp::And
-                    | BinOp::Or => env.call_pt_binary(op, a, b),
+                    BinOp::Add => env.b.ins().fadd(a, b),
+                    BinOp::Sub => env.b.ins().fsub(a, b),
+                    BinOp::Mul => env.b.ins().fmul(a, b),
+                    BinOp::Div => W::div_nan(env, a, b),
+                    BinOp::Min => env.b.ins().fmin(a, b),
+                    BinOp::Max => env.b.ins().fmax(a, b),
+                    _ => W::binary_helper(env, op, a, b),
                 }
             }
             Op::Powi(a, n) => {
                 let a = vals[a.index()];
                 if n == 0 {
-                    env.pool_load(i, 0)
+                    W::constant(env, i)
                 } else {
                     let p = powi_chain(env, a, n.unsigned_abs());
                     if n < 0 {
-                        let one = env.pool_load(i, 0);
-                        div_nan(env, one, p)
+                        let one = W::constant(env, i);
+                        W::div_nan(env, one, p)
                     } else {
                         p
                     }

@@ -1,6 +1,6 @@
 //! The F64X2 batch point kernel: two points per loop iteration.
 //!
-//! The body is [`super::point`]'s, lane-wise: every inline op is the same
+//! The body is [`super::point::lower`] at width [`X2`]: every inline op is the same
 //! IEEE operation on an `F64X2` (`fneg fabs sqrt fadd fsub fmul fdiv fmin
 //! fmax`, whose Cranelift semantics are per lane those of the scalar forms:
 //! `fmin`/`fmax` propagate NaN and order `-0 < +0`), `a / ±0` is NaN by a
@@ -18,7 +18,8 @@ use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
 use cranelift_codegen::ir::{InstBuilder, MemFlagsData, Value, types};
 
 use super::Env;
-use crate::ir::{BinOp, Op, Program, UnOp};
+use super::point::{Width, lower};
+use crate::ir::{BinOp, Program, UnOp};
 
 const VT: cranelift_codegen::ir::Type = types::F64X2;
 
@@ -109,7 +110,7 @@ pub(super) fn emit_point_batch(env: &mut Env, prog: &Program, params: &[Value]) 
 
     env.b.switch_to_block(body);
     let bp: Vec<Value> = env.b.block_params(body).to_vec();
-    let r = lower(env, prog, [bp[0], bp[1], bp[2], tv]);
+    let r = lower::<X2>(env, prog, [bp[0], bp[1], bp[2], tv]);
     let oa = env.b.ins().iadd(out, bp[3]);
     env.b.ins().brif(bp[4], store2, &[], store1, &[]);
 
@@ -127,71 +128,29 @@ pub(super) fn emit_point_batch(env: &mut Env, prog: &Program, params: &[Value]) 
     env.b.ins().return_(&[]);
 }
 
-/// The point body on `F64X2` lanes; returns the output vector.
-fn lower(env: &mut Env, prog: &Program, input: [Value; 4]) -> Value {
-    let mut vals: Vec<Value> = Vec::with_capacity(prog.len());
-    for (i, op) in prog.insts.iter().enumerate() {
-        let v = match *op {
-            Op::Var(var) => input[var.index()],
-            Op::Const(_) => splat_pool(env, i),
-            Op::Unary(u, a) => {
-                let a = vals[a.index()];
-                match u {
-                    UnOp::Neg => env.b.ins().fneg(a),
-                    UnOp::Abs => env.b.ins().fabs(a),
-                    UnOp::Sqrt => env.b.ins().sqrt(a),
-                    UnOp::Square => env.b.ins().fmul(a, a),
-                    _ => {
-                        let [a0, a1] = lanes(env, a);
-                        let r0 = env.call_pt_unary(u, a0);
-                        let r1 = env.call_pt_unary(u, a1);
-                        join(env, r0, r1)
-                    }
-                }
-            }
-            Op::Binary(op, a, b) => {
-                let (a, b) = (vals[a.index()], vals[b.index()]);
-                let ins = env.b.ins();
-                match op {
-                    BinOp::Add => ins.fadd(a, b),
-                    BinOp::Sub => ins.fsub(a, b),
-                    BinOp::Mul => ins.fmul(a, b),
-                    BinOp::Div => div_nan(env, a, b),
-                    BinOp::Min => ins.fmin(a, b),
-                    BinOp::Max => ins.fmax(a, b),
-                    BinOp::Atan2
-                    | BinOp::Pow
-                    | BinOp::Compare
-                    | BinOp::Mod
-                    | BinOp::And
-                    | BinOp::Or => {
-                        let [a0, a1] = lanes(env, a);
-                        let [b0, b1] = lanes(env, b);
-                        let r0 = env.call_pt_binary(op, a0, b0);
-                        let r1 = env.call_pt_binary(op, a1, b1);
-                        join(env, r0, r1)
-                    }
-                }
-            }
-            Op::Powi(a, n) => {
-                let a = vals[a.index()];
-                if n == 0 {
-                    splat_pool(env, i)
-                } else {
-                    // The scalar chain's multiplications, on vectors.
-                    let p = super::point::powi_chain(env, a, n.unsigned_abs());
-                    if n < 0 {
-                        let one = splat_pool(env, i);
-                        div_nan(env, one, p)
-                    } else {
-                        p
-                    }
-                }
-            }
-        };
-        vals.push(v);
+/// Two f64 lanes per value: the body of the batch loop.
+pub(super) struct X2;
+
+impl Width for X2 {
+    fn constant(env: &mut Env, i: usize) -> Value {
+        splat_pool(env, i)
     }
-    vals[prog.output.index()]
+    fn div_nan(env: &mut Env, a: Value, b: Value) -> Value {
+        div_nan(env, a, b)
+    }
+    fn unary_helper(env: &mut Env, u: UnOp, a: Value) -> Value {
+        let [a0, a1] = lanes(env, a);
+        let r0 = env.call_pt_unary(u, a0);
+        let r1 = env.call_pt_unary(u, a1);
+        join(env, r0, r1)
+    }
+    fn binary_helper(env: &mut Env, op: BinOp, a: Value, b: Value) -> Value {
+        let [a0, a1] = lanes(env, a);
+        let [b0, b1] = lanes(env, b);
+        let r0 = env.call_pt_binary(op, a0, b0);
+        let r1 = env.call_pt_binary(op, a1, b1);
+        join(env, r0, r1)
+    }
 }
 
 /// The pool's point value of instruction `i` in both lanes.
