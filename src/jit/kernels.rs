@@ -320,36 +320,10 @@ impl Kernels {
         t: f64,
         out: &mut [f64],
     ) -> Result<(), JitError> {
-        let n = out.len();
-        if xs.len() != n || ys.len() != n || zs.len() != n {
-            return Err(JitError::BufferLength(format!(
-                "xs {}, ys {}, zs {}, out {n}",
-                xs.len(),
-                ys.len(),
-                zs.len()
-            )));
-        }
-        match self.point_k() {
-            // SAFETY: every pointer is valid for `n` f64 (checked above),
-            // `out` is exclusively borrowed, the kernel reads/writes only
-            // indices < n.
-            Ok(k) => unsafe {
-                (k.batch)(
-                    xs.as_ptr(),
-                    ys.as_ptr(),
-                    zs.as_ptr(),
-                    t,
-                    out.as_mut_ptr(),
-                    n as u64,
-                )
-            },
-            Err(_) => {
-                for i in 0..n {
-                    out[i] = crate::eval::point::eval(&self.program, [xs[i], ys[i], zs[i], t]);
-                }
-            }
-        }
-        Ok(())
+        let k = self.point_k().map(|k| k.batch);
+        columns_batch(k, [xs, ys, zs], t, out, 1, |p, o| {
+            o[0] = crate::eval::point::eval(&self.program, p);
+        })
     }
 
     /// Enclosure of `f` over the box `[x, y, z, t]`.
@@ -436,39 +410,11 @@ impl Kernels {
         t: f64,
         out: &mut [f64],
     ) -> Result<(), JitError> {
-        let n = xs.len();
-        if ys.len() != n || zs.len() != n || out.len() != 4 * n {
-            return Err(JitError::BufferLength(format!(
-                "xs {n}, ys {}, zs {}, out {} (want {})",
-                ys.len(),
-                zs.len(),
-                out.len(),
-                4 * n
-            )));
-        }
-        match self.pgrad_k() {
-            // SAFETY: `xs ys zs` are valid for `n` f64 and `out` for `4n`
-            // (checked above), `out` is exclusively borrowed; the kernel
-            // touches only those indices and the pool `self` keeps alive.
-            Ok(k) => unsafe {
-                (k.batch)(
-                    xs.as_ptr(),
-                    ys.as_ptr(),
-                    zs.as_ptr(),
-                    t,
-                    out.as_mut_ptr(),
-                    n as u64,
-                )
-            },
-            Err(_) => {
-                for i in 0..n {
-                    let (v, g) =
-                        crate::eval::grad::eval_point(&self.program, [xs[i], ys[i], zs[i], t]);
-                    out[4 * i..4 * i + 4].copy_from_slice(&[v, g[0], g[1], g[2]]);
-                }
-            }
-        }
-        Ok(())
+        let k = self.pgrad_k().map(|k| k.batch);
+        columns_batch(k, [xs, ys, zs], t, out, 4, |p, o| {
+            let (v, g) = crate::eval::grad::eval_point(&self.program, p);
+            o.copy_from_slice(&[v, g[0], g[1], g[2]]);
+        })
     }
 }
 
@@ -498,6 +444,52 @@ fn grad_record(out: &[f64], defined: bool) -> GradEval {
         grad: [iv(1), iv(2), iv(3)],
         defined,
     }
+}
+
+/// Runs a batch kernel over structure-of-arrays coordinates (`n` points,
+/// `stride` f64 of output each: the point and point-gradient kinds), or,
+/// when it is not compiled, `interp` on each point `[x, y, z, t]`, which
+/// writes the point's output record.
+fn columns_batch(
+    k: Result<PointBatchFn, JitError>,
+    [xs, ys, zs]: [&[f64]; 3],
+    t: f64,
+    out: &mut [f64],
+    stride: usize,
+    interp: impl Fn([f64; 4], &mut [f64]),
+) -> Result<(), JitError> {
+    let n = xs.len();
+    if ys.len() != n || zs.len() != n || out.len() != stride * n {
+        return Err(JitError::BufferLength(format!(
+            "xs {n}, ys {}, zs {}, out {} (want {})",
+            ys.len(),
+            zs.len(),
+            out.len(),
+            stride * n
+        )));
+    }
+    match k {
+        // SAFETY: `xs ys zs` are valid for `n` f64 and `out` for
+        // `stride·n` (checked above), `out` is exclusively borrowed; the
+        // kernel touches only those indices and the pool its `Kernels`
+        // keeps alive.
+        Ok(f) => unsafe {
+            f(
+                xs.as_ptr(),
+                ys.as_ptr(),
+                zs.as_ptr(),
+                t,
+                out.as_mut_ptr(),
+                n as u64,
+            )
+        },
+        Err(_) => {
+            for (i, o) in out.chunks_exact_mut(stride).enumerate() {
+                interp([xs[i], ys[i], zs[i], t], o);
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Runs a box kernel (`k`) over the records of `input`, or, when it is not
