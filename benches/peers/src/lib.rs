@@ -27,11 +27,20 @@ pub const CORPUS: [&str; 9] = [
     "chair_off",
 ];
 
-/// Path of a corpus file, found from this crate's manifest directory.
+/// Fidget's own 3-D models (`../shared/models`, MPL-2.0), read through
+/// isoc's `.vm` front end and converted back to a Fidget graph like the
+/// corpus formulas; named by file name.
+pub const MODELS: [&str; 2] = ["colonnade.vm", "tanglecube.vm"];
+
+/// Path of a corpus file (`heart`) or a shared model (`colonnade.vm`),
+/// found from this crate's manifest directory.
 pub fn corpus_path(name: &str) -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../corpus")
-        .join(format!("{name}.iso"))
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    if name.ends_with(".vm") {
+        root.join("../../../shared/models").join(name)
+    } else {
+        root.join("../../corpus").join(format!("{name}.iso"))
+    }
 }
 
 // ---------------------------------------------------------------------------

@@ -97,6 +97,7 @@ fn main() {
     let a = args();
     let names: Vec<&str> = CORPUS
         .iter()
+        .chain(&MODELS)
         .copied()
         .filter(|n| a.only.is_empty() || a.only.iter().any(|o| o == n))
         .collect();
