@@ -484,3 +484,30 @@ fn vm_compile_emit_and_errors() {
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn mesh_tolerance_reports_deviation() {
+    let src = temp_file(
+        "tol_sphere.iso",
+        b"domain [-1.3, 1.3]^3;\nsurface x^2 + y^2 + z^2 - 1;\n",
+    );
+    let out = src.with_extension("ply");
+    let o = isoc(&[
+        "mesh",
+        src.to_str().unwrap(),
+        "--tolerance",
+        "0.002",
+        "--stats",
+        "json",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(j["tolerance_met"], true);
+    let d = j["max_deviation"].as_f64().unwrap();
+    assert!(d > 0.0 && d <= 0.002, "{d}");
+    let bad = isoc(&["mesh", src.to_str().unwrap(), "--tolerance", "0"]);
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(stderr(&bad).contains("--tolerance"), "{}", stderr(&bad));
+}

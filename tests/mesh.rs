@@ -293,3 +293,65 @@ fn the_reference_interpreter_meshes_exactly_like_the_jit() {
         assert_eq!(rr.smoothing_moves, jr.smoothing_moves, "{name}");
     }
 }
+
+/// `--tolerance`: the returned mesh's triangles are within the tolerance
+/// of the surface at every centroid and edge midpoint, by the exact
+/// distance to a sphere and to a torus (an oracle independent of the
+/// mesher's own projection), and the reported deviation bounds those
+/// distances from above.
+#[test]
+fn tolerance_is_met_by_exact_distance() {
+    type Dist = fn(glam::DVec3) -> f64;
+    let cases: [(&str, f64, Dist); 2] = [
+        (
+            "domain [-1.3, 1.3]^3; surface x^2 + y^2 + z^2 - 1;",
+            2e-3,
+            |p| (p.length() - 1.0).abs(),
+        ),
+        (
+            "domain [-1.6, 1.6], [-1.6, 1.6], [-0.6, 0.6]; surface (sqrt(x^2 + y^2) - 1)^2 + z^2 - 0.16;",
+            1e-3,
+            |p| ((((p.x * p.x + p.y * p.y).sqrt() - 1.0).powi(2) + p.z * p.z).sqrt() - 0.4).abs(),
+        ),
+    ];
+    for (src, tol, dist) in cases {
+        let s = surface(src);
+        let mut opts = MeshOptions::default();
+        opts.octree.max_level = 9;
+        let (mesh, report, t) = mesher::mesh_to_tolerance(&s, s.domain, &opts, tol, &|_| {});
+        assert!(t.met, "{src}: {t:?}");
+        assert!(t.max_deviation <= tol);
+        assert!(report.topology.watertight);
+        let mut worst = 0.0f64;
+        for tri in &mesh.triangles {
+            let [a, b, c] = tri.map(|i| mesh.positions[i as usize]);
+            for p in [
+                (a + b + c) / 3.0,
+                (a + b) * 0.5,
+                (b + c) * 0.5,
+                (c + a) * 0.5,
+            ] {
+                worst = worst.max(dist(p));
+            }
+        }
+        assert!(worst <= tol, "{src}: exact deviation {worst} > {tol}");
+        assert!(
+            worst <= t.max_deviation * (1.0 + 1e-9) + 1e-15,
+            "{worst} > reported {t:?}"
+        );
+        // Tighter than the paper's default criterion gives: the loop refined.
+        let (_, coarse) = run(&s, 9, TopologyTest::Paper, 2);
+        assert!(t.passes == 1 || report.triangles > coarse.triangles);
+    }
+}
+
+/// A tolerance the level cap cannot reach is reported as not met, with the
+/// measured deviation above it.
+#[test]
+fn an_unreachable_tolerance_is_reported_unmet() {
+    let s = surface("domain [-1.3, 1.3]^3; surface x^2 + y^2 + z^2 - 1;");
+    let mut opts = MeshOptions::default();
+    opts.octree.max_level = 4;
+    let (_, _, t) = mesher::mesh_to_tolerance(&s, s.domain, &opts, 1e-7, &|_| {});
+    assert!(!t.met && t.max_deviation > 1e-7, "{t:?}");
+}

@@ -81,9 +81,13 @@ pub enum Command {
 /// Options of `isoc mesh`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct MeshArgs {
-    /// Maximal octree level.
-    #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u8).range(0..=20))]
-    pub level: u8,
+    /// Maximal octree level [default: 7, or 10 with --tolerance].
+    #[arg(long, value_parser = clap::value_parser!(u8).range(0..=20))]
+    pub level: Option<u8>,
+    /// Refine until every measured triangle point lies within D (domain
+    /// units) of the surface, with --level as the cap.
+    #[arg(long, value_name = "D")]
+    pub tolerance: Option<f64>,
     /// Uniform subdivision level to start from (at most --level).
     #[arg(long = "min-level", default_value_t = 3)]
     pub min_level: u8,
@@ -351,10 +355,20 @@ fn mesh_command(
             m.kmax
         )));
     }
-    if m.min_level > m.level {
+    if let Some(d) = m.tolerance
+        && !(d.is_finite() && d > 0.0)
+    {
         return Err(Error::Usage(format!(
-            "--min-level {} is above --level {}",
-            m.min_level, m.level
+            "--tolerance {d}: must be a positive number (a distance in domain units)"
+        )));
+    }
+    let level = m
+        .level
+        .unwrap_or(if m.tolerance.is_some() { 10 } else { 7 });
+    if m.min_level > level {
+        return Err(Error::Usage(format!(
+            "--min-level {} is above --level {level}",
+            m.min_level
         )));
     }
     let output = match &m.output {
@@ -379,7 +393,7 @@ fn mesh_command(
     bar.enable_steady_tick(std::time::Duration::from_millis(200));
     let opts = MeshOptions {
         octree: OctreeOptions {
-            max_level: m.level,
+            max_level: level,
             min_level: m.min_level,
             kmax: m.kmax,
             test: if m.certify {
@@ -392,7 +406,7 @@ fn mesh_command(
         smooth: m.smooth,
         domain: None,
     };
-    let (mesh, report) = mesher::mesh(&surface, &opts, &|stage| {
+    let progress = |stage: Stage| {
         bar.set_message(match stage {
             Stage::Octree { level, cells } => {
                 format!("octree: level {level}, {cells} cells evaluated")
@@ -401,7 +415,18 @@ fn mesh_command(
             Stage::Polygonize => "polygonising".to_string(),
             Stage::Smooth => "smoothing".to_string(),
         })
-    });
+    };
+    let (mesh, report, tol) = match m.tolerance {
+        Some(d) => {
+            let (mesh, report, tol) =
+                mesher::mesh_to_tolerance(&surface, surface.domain, &opts, d, &progress);
+            (mesh, report, Some(tol))
+        }
+        None => {
+            let (mesh, report) = mesher::mesh(&surface, &opts, &progress);
+            (mesh, report, None)
+        }
+    };
     bar.finish_and_clear();
     crate::io::write_file(&mesh, &output)?;
 
@@ -425,8 +450,21 @@ fn mesh_command(
         }
     );
     let _ = err.write_all(summary.as_bytes());
+    if let Some(t) = &tol {
+        let _ = err.write_all(
+            format!(
+                "tolerance {}: max deviation {:e} ({}), k_max {} after {} pass(es)\n",
+                t.tolerance,
+                t.max_deviation,
+                if t.met { "met" } else { "NOT met" },
+                t.kmax,
+                t.passes
+            )
+            .as_bytes(),
+        );
+    }
     if m.stats == Some(StatsFormat::Json) {
-        let j = json!({
+        let mut j = json!({
             "triangles": r.triangles,
             "vertices": r.vertices,
             "aspect_good": num(r.aspect_good),
@@ -447,9 +485,15 @@ fn mesh_command(
                 "dual": num(r.timings.dual),
                 "polygonize": num(r.timings.polygonize),
                 "smooth": num(r.timings.smooth),
-                "total": num(r.timings.total + compile_ms),
+                "total": num(tol.map_or(r.timings.total, |t| t.total_ms) + compile_ms),
             }
         });
+        if let (Some(t), Some(obj)) = (&tol, j.as_object_mut()) {
+            obj.insert("max_deviation".into(), num(t.max_deviation));
+            obj.insert("tolerance_met".into(), json!(t.met));
+            obj.insert("tolerance_passes".into(), json!(t.passes));
+            obj.insert("kmax".into(), num(t.kmax));
+        }
         write(out, &(j.to_string() + "\n"))?;
     }
     Ok(())

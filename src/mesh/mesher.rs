@@ -146,3 +146,100 @@ pub fn mesh_with<E: Evaluator + ?Sized>(
     };
     (mesh, report)
 }
+
+/// What [`mesh_to_tolerance`] achieved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToleranceReport {
+    /// The tolerance asked for (domain units).
+    pub tolerance: f64,
+    /// The largest measured triangle-to-surface distance of the returned
+    /// mesh ([`super::deviation::max_deviation`]; `+∞` when a sample could
+    /// not be projected).
+    pub max_deviation: f64,
+    /// `max_deviation <= tolerance`.
+    pub met: bool,
+    /// The geometry criterion `k_max` of the returned mesh.
+    pub kmax: f64,
+    /// Meshes built.
+    pub passes: usize,
+    /// Wall time of all passes, deviation measurements included (ms).
+    pub total_ms: f64,
+}
+
+/// Smallest `k_max` [`mesh_to_tolerance`] tries.
+const KMAX_FLOOR: f64 = 1e-3;
+/// Most meshes [`mesh_to_tolerance`] builds.
+const MAX_PASSES: usize = 10;
+
+/// Meshes like [`mesh_with`], then measures the mesh's deviation from the
+/// surface and, while it exceeds `tolerance`, meshes again with a smaller
+/// geometry criterion `k_max` (starting from `opts.octree.kmax`), up to
+/// `opts.octree.max_level`.
+///
+/// The octree's geometry criterion subdivides a cell while the spread of
+/// its normals exceeds `k_max`; a triangle's chord error grows like the
+/// square of its size times the curvature, so lowering `k_max` refines
+/// only where the surface bends — flat regions keep large cells. Each pass
+/// scales `k_max` by `√(tolerance / deviation)` (clamped to `[0.1, 0.7]`).
+/// It stops when the tolerance is met, when `k_max` reaches 10⁻³, after 10
+/// passes, or when the maximal level is reached and the deviation no longer
+/// shrinks (the cap is too coarse: `met` is then false).
+///
+/// # Limits
+///
+/// `k_max` is one number for the whole domain: where the surface is flat
+/// but the deviation is set by a distant high-curvature region, cells are
+/// finer than the tolerance alone would need. The deviation is measured at
+/// centroids and edge midpoints only (see [`super::deviation`]).
+pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
+    f: &E,
+    domain: Bounds,
+    opts: &MeshOptions,
+    tolerance: f64,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> (Mesh, MeshReport, ToleranceReport) {
+    let start = Instant::now();
+    let t = opts.octree.t;
+    let mut o = *opts;
+    let mut passes = 0;
+    let mut previous = f64::INFINITY;
+    loop {
+        passes += 1;
+        let (mesh, report) = mesh_with(f, domain, &o, progress);
+        // A triangle's corners lie on the surface, so the surface is within
+        // one edge length of every sample; the projection may search twice
+        // that.
+        let reach = 2.0 * longest_edge(&mesh) + f64::MIN_POSITIVE;
+        let dev = super::deviation::max_deviation(&mesh, f, t, reach);
+        let met = dev <= tolerance;
+        let at_cap = report.octree.max_level_reached >= o.octree.max_level;
+        let stalled = at_cap && dev >= 0.95 * previous;
+        if met || stalled || o.octree.kmax <= KMAX_FLOOR || passes >= MAX_PASSES {
+            let r = ToleranceReport {
+                tolerance,
+                max_deviation: dev,
+                met,
+                kmax: o.octree.kmax,
+                passes,
+                total_ms: ms(start),
+            };
+            return (mesh, report, r);
+        }
+        previous = dev;
+        let scale = if dev.is_finite() && dev > 0.0 {
+            (tolerance / dev).sqrt().clamp(0.1, 0.7)
+        } else {
+            0.1
+        };
+        o.octree.kmax = (o.octree.kmax * scale).max(KMAX_FLOOR);
+    }
+}
+
+fn longest_edge(mesh: &Mesh) -> f64 {
+    let p = &mesh.positions;
+    mesh.triangles
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .map(|(a, b)| (p[a as usize] - p[b as usize]).length())
+        .fold(0.0, f64::max)
+}

@@ -8,6 +8,7 @@
 //! Triangles are counter-clockwise seen from the side `f > 0`, so their
 //! right-hand normal points along `+∇f` (outward = increasing f).
 
+pub mod deviation;
 pub mod mesher;
 pub mod quality;
 pub mod roots;
