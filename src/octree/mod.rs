@@ -189,6 +189,22 @@ fn examine<E: Evaluator + ?Sized>(
 /// Cells per batch call.
 const BATCH: usize = 128;
 
+/// Whether interval arithmetic proves the cell free of surface: `F`
+/// defined on it and `0 ∉ F(B)` by the natural extension (one interval
+/// evaluation), or, failing that, by the mean-value form or the gradient
+/// kernel's own value enclosure ([`examine`]'s test). The cheap interval
+/// kernel first, the gradient kernel only where it is needed.
+fn empty<E: Evaluator + ?Sized>(f: &E, cell: [Interval; 4], opts: &OctreeOptions) -> bool {
+    let r = f.interval(cell);
+    if !r.defined {
+        return false;
+    }
+    if r.iv.lo > 0.0 || r.iv.hi < 0.0 {
+        return true;
+    }
+    examine(f, &[cell], opts)[0].empty
+}
+
 /// Whether the box `[a, b]` is proved free of surface, splitting it up to
 /// `depth` more times.
 fn proves_empty<E: Evaluator + ?Sized>(
@@ -198,7 +214,7 @@ fn proves_empty<E: Evaluator + ?Sized>(
     opts: &OctreeOptions,
     depth: u8,
 ) -> bool {
-    if examine(f, &[cell_input(a, b, opts.t)], opts)[0].empty {
+    if empty(f, cell_input(a, b, opts.t), opts) {
         return true;
     }
     if depth == 0 {
