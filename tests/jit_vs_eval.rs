@@ -139,11 +139,10 @@ fn tightness_report() {
 /// random programs of every op: each output is bit for bit the single-point
 /// kernel's and the reference interpreter's (every NaN equals every NaN),
 /// for batch lengths 0, 1, 2, 3, 17 and others, odd and even, with NaN,
-/// ±inf and -0.0 among the coordinates. One known exception with the
-/// reference, not the batch's doing: the sign of a zero from `min`/`max`
-/// of `+0` and `-0`, which Rust's `f64::min`/`max` leave unspecified and
-/// Cranelift's `fmin`/`fmax` order `-0 < +0` (the single-point kernel does
-/// the same); there the reference is compared with `==`.
+/// ±inf and -0.0 among the coordinates. (The reference is compared with
+/// `==` for zeros: a check kept from when Rust's `f64::min` left the zero
+/// of a `min`/`max` tie unspecified; the reference now orders `-0 < +0`
+/// like the kernels.)
 mod batch {
     use super::*;
     use proptest::prelude::*;

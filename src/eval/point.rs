@@ -17,7 +17,7 @@
 //!   `a != 0` else `b`.
 //! * NaN propagates through every op (`min`/`max` included, unlike
 //!   `f64::min`), with one exception fixed by the IR: `a^0 = 1` for every
-//!   `a`.
+//!   `a`. `min`/`max` order `−0 < +0` (IEEE 754-2019 minimum/maximum).
 //! * `powi(a, n)` is the right-to-left binary method (see [`powi`]); the
 //!   interval evaluator encloses exactly this chain.
 //!
@@ -94,9 +94,14 @@ pub fn binary(op: BinOp, a: f64, b: f64) -> f64 {
                 a / b
             }
         }
+        // IEEE 754-2019 minimum/maximum: NaN if either operand is NaN, and
+        // −0 < +0 (Rust's `f64::min`/`max` leave the zero of a ±0 tie
+        // unspecified; the JIT's `fmin`/`fmax` order them like this).
         BinOp::Min => {
             if a.is_nan() || b.is_nan() {
                 f64::NAN
+            } else if a == b {
+                if a.is_sign_negative() { a } else { b }
             } else {
                 a.min(b)
             }
@@ -104,6 +109,8 @@ pub fn binary(op: BinOp, a: f64, b: f64) -> f64 {
         BinOp::Max => {
             if a.is_nan() || b.is_nan() {
                 f64::NAN
+            } else if a == b {
+                if a.is_sign_positive() { a } else { b }
             } else {
                 a.max(b)
             }

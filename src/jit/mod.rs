@@ -16,9 +16,8 @@
 //!
 //! - **point**: bit for bit the reference evaluator [`crate::eval::point`]
 //!   (same IEEE operations in the same order; transcendentals call the same
-//!   Rust functions; one exception: the sign of a zero from `min`/`max`
-//!   of `+0` and `−0`, where the kernels order `−0 < +0` and Rust's
-//!   `f64::min`/`max` may return either);
+//!   Rust functions; `min`/`max` are IEEE minimum/maximum, `−0 < +0`, in
+//!   both);
 //! - **interval**: an enclosure of the function over the box, outward
 //!   rounded by hardware rounding toward +∞ (see [`rounding`] and
 //!   [`mxcsr`]), plus the flag "defined and continuous on the whole box"
