@@ -147,21 +147,6 @@ mod batch {
     use super::*;
     use proptest::prelude::*;
 
-    fn coord() -> impl Strategy<Value = f64> {
-        prop_oneof![
-            6 => common::arb_coord(),
-            1 => prop::sample::select(vec![
-                f64::NAN,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                -0.0,
-                0.0,
-                -f64::MIN_POSITIVE,
-                5e-324,
-            ]),
-        ]
-    }
-
     fn len() -> impl Strategy<Value = usize> {
         prop_oneof![prop::sample::select(vec![0usize, 1, 2, 3, 17]), 0usize..40]
     }
@@ -180,8 +165,8 @@ mod batch {
         #[test]
         fn batch_is_single_and_reference(
             p in common::arb_program(),
-            pts in len().prop_flat_map(|n| prop::collection::vec([coord(), coord(), coord()], n)),
-            t in coord(),
+            pts in len().prop_flat_map(|n| prop::collection::vec([common::arb_batch_coord(), common::arb_batch_coord(), common::arb_batch_coord()], n)),
+            t in common::arb_batch_coord(),
         ) {
             let xs: Vec<f64> = pts.iter().map(|q| q[0]).collect();
             let ys: Vec<f64> = pts.iter().map(|q| q[1]).collect();

@@ -151,6 +151,19 @@ impl Num for f64 {
     }
 }
 
+/// The derivative of an op that picks one of two operands: `da` when the
+/// first is certainly picked, `db` when the second is, else the hull of
+/// both, not defined (the choice is open on the box).
+fn choose(first: bool, second: bool, da: DecInterval, db: DecInterval, ok: bool) -> DecInterval {
+    if first {
+        DecInterval::new(da.iv, ok)
+    } else if second {
+        DecInterval::new(db.iv, ok)
+    } else {
+        DecInterval::new(da.iv.hull(db.iv), false)
+    }
+}
+
 fn dec(iv: (Interval, bool), ok: bool) -> DecInterval {
     DecInterval::new(iv.0, iv.1 && ok)
 }
@@ -205,13 +218,7 @@ impl Num for DecInterval {
         } else {
             (a.lo > b.hi, b.lo > a.hi)
         };
-        if first {
-            DecInterval::new(da.iv, ok)
-        } else if second {
-            DecInterval::new(db.iv, ok)
-        } else {
-            DecInterval::new(da.iv.hull(db.iv), false)
-        }
+        choose(first, second, da, db, ok)
     }
     fn flat_d(v: Self, da: Self) -> Self {
         DecInterval::new(Interval::point(0.0), v.defined && da.defined)
@@ -229,13 +236,7 @@ impl Num for DecInterval {
         } else {
             (nonzero, zero)
         };
-        if first {
-            DecInterval::new(da.iv, ok)
-        } else if second {
-            DecInterval::new(db.iv, ok)
-        } else {
-            DecInterval::new(da.iv.hull(db.iv), false)
-        }
+        choose(first, second, da, db, ok)
     }
 }
 
