@@ -278,6 +278,9 @@ impl Evaluator for Surface {
     fn grad(&self, b: [Interval; 4]) -> GradEval {
         Surface::grad(self, b)
     }
+    fn program(&self) -> Option<&crate::ir::Program> {
+        Some(&self.program)
+    }
     fn point_batch(&self, xs: &[f64], ys: &[f64], zs: &[f64], t: f64, out: &mut [f64]) {
         Evaluator::point_batch(self.kernels(), xs, ys, zs, t, out)
     }

@@ -46,6 +46,7 @@ fn run(s: &Surface, level: u8, kmax: f64, test: TopologyTest) -> MeshReport {
             kmax,
             test,
             t: 0.0,
+            prune: true,
         },
         smooth: 0,
         domain: None,

@@ -42,6 +42,7 @@ fn tree(max: u8, split: &dyn Fn(u8, [u32; 3]) -> bool) -> Octree {
         lo: DVec3::ZERO,
         size: DVec3::ONE,
         stats: OctreeStats::default(),
+        tapes: Vec::new(),
     }
 }
 

@@ -647,3 +647,230 @@ mod vm_models {
         }
     }
 }
+
+// ------------------------------------------------------------ pruning
+
+mod prune {
+    use super::common::{Rng, arb_box, arb_program, cases, sample};
+    use isoc::eval::prune::{has_choices, prune};
+    use isoc::eval::{Evaluator, Reference, point};
+    use isoc::interval::Interval;
+    use isoc::ir::{BinOp, Builder, Op, Program, UnOp, Value, Var};
+    use proptest::prelude::*;
+
+    /// A random CSG solid over spheres and planes: `min` (union), `max`
+    /// (intersection), `max(a, −b)` (difference), and now and then
+    /// Fidget's `and`/`or` of two operands.
+    #[derive(Clone, Debug)]
+    enum Csg {
+        Sphere([f64; 3], f64),
+        Plane([f64; 3], f64),
+        Node(u8, Box<Csg>, Box<Csg>),
+    }
+
+    fn arb_csg() -> impl Strategy<Value = Csg> {
+        let c = -1.0f64..1.0;
+        let leaf = prop_oneof![
+            ([c.clone(), c.clone(), c.clone()], 0.05f64..0.8).prop_map(|(p, r)| Csg::Sphere(p, r)),
+            ([c.clone(), c.clone(), c.clone()], c).prop_map(|(n, d)| Csg::Plane(n, d)),
+        ];
+        leaf.prop_recursive(5, 40, 2, |inner| {
+            (0u8..5, inner.clone(), inner)
+                .prop_map(|(k, a, b)| Csg::Node(k, Box::new(a), Box::new(b)))
+        })
+    }
+
+    fn lower(c: &Csg, b: &mut Builder) -> Value {
+        let var = |b: &mut Builder, k: usize| b.var([Var::X, Var::Y, Var::Z][k]);
+        match c {
+            Csg::Sphere(p, r) => {
+                let mut acc = b.num(-r * r);
+                for (k, &pk) in p.iter().enumerate() {
+                    let v = var(b, k);
+                    let o = b.num(pk);
+                    let d = b.binary(BinOp::Sub, v, o);
+                    let sq = b.unary(UnOp::Square, d);
+                    acc = b.binary(BinOp::Add, acc, sq);
+                }
+                acc
+            }
+            Csg::Plane(n, d) => {
+                let mut acc = b.num(*d);
+                for (k, &nk) in n.iter().enumerate() {
+                    let v = var(b, k);
+                    let c = b.num(nk);
+                    let t = b.binary(BinOp::Mul, c, v);
+                    acc = b.binary(BinOp::Add, acc, t);
+                }
+                acc
+            }
+            Csg::Node(k, l, r) => {
+                let (l, r) = (lower(l, b), lower(r, b));
+                match k {
+                    0 => b.binary(BinOp::Min, l, r),
+                    1 => b.binary(BinOp::Max, l, r),
+                    2 => {
+                        let nr = b.unary(UnOp::Neg, r);
+                        b.binary(BinOp::Max, l, nr)
+                    }
+                    3 => b.binary(BinOp::And, l, r),
+                    _ => b.binary(BinOp::Or, l, r),
+                }
+            }
+        }
+    }
+
+    fn program_of(c: &Csg) -> Program {
+        let mut b = Builder::new();
+        let out = lower(c, &mut b);
+        b.finish(out)
+    }
+
+    /// A cube of side `2^-k` in [-1, 1]³ (as the octree's cells), `t = 0`.
+    fn arb_cell() -> impl Strategy<Value = [Interval; 4]> {
+        (0u32..6, [0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0]).prop_map(|(k, u)| {
+            let n = (1u32 << k) as f64;
+            let side = |u: f64| {
+                let i = (u * n).floor();
+                Interval::new(-1.0 + 2.0 * i / n, -1.0 + 2.0 * (i + 1.0) / n)
+            };
+            [side(u[0]), side(u[1]), side(u[2]), Interval::point(0.0)]
+        })
+    }
+
+    /// A random sub-box of `b` (on x, y, z).
+    fn sub_box(b: &[Interval; 4], rng: &mut Rng) -> [Interval; 4] {
+        let mut s = *b;
+        for side in s.iter_mut().take(3) {
+            let (u, v) = (sample(*side, rng), sample(*side, rng));
+            if u.is_finite() && v.is_finite() {
+                *side = Interval::new(u.min(v), u.max(v));
+            }
+        }
+        s
+    }
+
+    /// Whether the full program's value at `p` is NaN because a selecting
+    /// instruction has a NaN operand (the documented exception: an
+    /// overflow inside a dropped branch).
+    fn nan_in_choice(program: &Program, p: [f64; 4]) -> bool {
+        let vals = point::eval_all(program, p);
+        program.insts.iter().any(|op| match *op {
+            Op::Binary(BinOp::Min | BinOp::Max | BinOp::And | BinOp::Or, a, b) => {
+                vals[a.index()].is_nan() || vals[b.index()].is_nan()
+            }
+            _ => false,
+        })
+    }
+
+    /// The pruned program on `b` against the full one on sub-boxes and
+    /// points of `b` (the contract of `isoc::eval::prune`).
+    fn check(program: &Program, b: [Interval; 4], seed: u64) -> Result<(), TestCaseError> {
+        let pruned = prune(program, b);
+        prop_assert!(pruned.insts.len() <= program.insts.len());
+        let (full, short) = (Reference(program.clone()), Reference(pruned.clone()));
+        let mut rng = Rng(seed);
+        for k in 0..8 {
+            let s = if k == 0 { b } else { sub_box(&b, &mut rng) };
+            let (fi, si) = (full.interval(s), short.interval(s));
+            prop_assert!(
+                fi.iv.lo.to_bits() == si.iv.lo.to_bits()
+                    && fi.iv.hi.to_bits() == si.iv.hi.to_bits()
+                    && fi.defined == si.defined,
+                "interval on {s:?}: full {fi:?}, pruned {si:?}\n{program}\npruned:\n{pruned}"
+            );
+            let (fg, sg) = (full.grad(s), short.grad(s));
+            // Over a box where the function is nowhere defined (an empty
+            // value) the derivative enclosures carry no meaning.
+            prop_assert!(
+                fg.value.is_empty()
+                    || (fg.value == sg.value && fg.grad == sg.grad && (!fg.defined || sg.defined)),
+                "gradient on {s:?}: full {fg:?}, pruned {sg:?}\n{program}\npruned:\n{pruned}"
+            );
+            let p = [0, 1, 2, 3].map(|i| sample(s[i], &mut rng));
+            if p.iter().any(|c| c.is_nan()) {
+                continue;
+            }
+            let (fv, sv) = (full.point(p), short.point(p));
+            let same = fv.to_bits() == sv.to_bits() || (fv.is_nan() && sv.is_nan());
+            prop_assert!(
+                same || (fv.is_nan() && nan_in_choice(program, p)),
+                "point {p:?}: full {fv:e}, pruned {sv:e}\n{program}\npruned:\n{pruned}"
+            );
+            if same {
+                let (fd, sd) = (full.point_grad(p).1, short.point_grad(p).1);
+                let eq = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+                prop_assert!(
+                    (0..3).all(|i| eq(fd[i], sd[i])),
+                    "point gradient {p:?}: full {fd:?}, pruned {sd:?}\n{program}"
+                );
+            }
+        }
+        Ok(())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(cases()))]
+
+        /// Random CSG solids on octree-like cells: where pruning bites.
+        #[test]
+        fn pruned_equals_full_on_csg(c in arb_csg(), b in arb_cell(), seed in any::<u64>()) {
+            check(&program_of(&c), b, seed)?;
+        }
+
+        /// Random programs of every op on random boxes (infinite and NaN
+        /// sides, domain edges).
+        #[test]
+        fn pruned_equals_full_on_any_program(program in arb_program(), b in arb_box(), seed in any::<u64>()) {
+            check(&program, b, seed)?;
+        }
+    }
+
+    /// Pruning bites: the union of two far-apart spheres is one sphere
+    /// near either, and stays whole where both could win.
+    #[test]
+    fn union_of_far_spheres_prunes_to_one() {
+        let s = |x: f64| Csg::Sphere([x, 0.0, 0.0], 0.3);
+        let c = Csg::Node(0, Box::new(s(-0.6)), Box::new(s(0.6)));
+        let program = program_of(&c);
+        assert!(has_choices(&program));
+        let cell = |lo: f64, hi: f64| {
+            [
+                Interval::new(lo, hi),
+                Interval::new(-0.2, 0.2),
+                Interval::new(-0.2, 0.2),
+                Interval::point(0.0),
+            ]
+        };
+        let near_left = prune(&program, cell(-0.8, -0.5));
+        assert!(!has_choices(&near_left), "{near_left}");
+        assert_eq!(near_left.insts.len(), program_of(&s(-0.6)).insts.len());
+        let whole = prune(&program, cell(-1.0, 1.0));
+        assert_eq!(whole.insts.len(), program.insts.len());
+    }
+
+    /// An undefined operand is never dropped: `min(x, sqrt(y))` on a box
+    /// where `sqrt(y)` is partly undefined keeps both branches although
+    /// `x` is smaller.
+    #[test]
+    fn undefined_branch_is_kept() {
+        let mut b = Builder::new();
+        let x = b.var(Var::X);
+        let y = b.var(Var::Y);
+        let r = b.unary(UnOp::Sqrt, y);
+        let ten = b.num(10.0);
+        let r10 = b.binary(BinOp::Add, r, ten);
+        let m = b.binary(BinOp::Min, x, r10);
+        let program = b.finish(m);
+        let cell = |ylo: f64| {
+            [
+                Interval::new(0.0, 1.0),
+                Interval::new(ylo, 1.0),
+                Interval::new(0.0, 1.0),
+                Interval::point(0.0),
+            ]
+        };
+        assert_eq!(prune(&program, cell(-1.0)).insts.len(), program.insts.len());
+        assert_eq!(prune(&program, cell(0.0)).insts.len(), 1);
+    }
+}

@@ -195,6 +195,32 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(cfg())]
+
+    /// The nine-case product rounds only the extremal bound products: it
+    /// must give the hull of all four rounded products, bound for bound
+    /// (a zero's sign aside), whatever the signs, zeros and infinities.
+    #[test]
+    fn product_by_sign_cases_is_the_four_product_hull(a in arb_interval(), b in arb_interval()) {
+        use isoc::interval::round::{self, Dir};
+        let r = interval::arith::mul(a, b);
+        if a.is_empty() || b.is_empty() {
+            prop_assert!(r.is_empty());
+        } else {
+            let mut lo = f64::INFINITY;
+            let mut hi = f64::NEG_INFINITY;
+            for x in [a.lo, a.hi] {
+                for y in [b.lo, b.hi] {
+                    lo = lo.min(round::mul(x, y, Dir::Down));
+                    hi = hi.max(round::mul(x, y, Dir::Up));
+                }
+            }
+            prop_assert!(r.lo == lo && r.hi == hi, "{a:?} * {b:?} = {r:?}, four products give [{lo:e}, {hi:e}]");
+        }
+    }
+}
+
 // ---------------------------------------------------------------- unit tests
 
 #[test]

@@ -23,6 +23,7 @@ fn run(s: &Surface, level: u8, test: TopologyTest, smooth: usize) -> (Mesh, Mesh
             kmax: 1.0,
             test,
             t: 0.0,
+            prune: true,
         },
         smooth,
         domain: None,
@@ -242,6 +243,7 @@ fn a_closed_surface_near_the_domain_boundary_stays_closed() {
             kmax: 4.9,
             test: TopologyTest::Paper,
             t: 0.0,
+            prune: true,
         },
         smooth: 2,
         domain: None,
@@ -265,6 +267,7 @@ fn the_reference_interpreter_meshes_exactly_like_the_jit() {
                 kmax: 1.0,
                 test: TopologyTest::Paper,
                 t: 0.0,
+                prune: true,
             },
             smooth: 2,
             domain: None,
@@ -354,4 +357,72 @@ fn an_unreachable_tolerance_is_reported_unmet() {
     opts.octree.max_level = 4;
     let (_, _, t) = mesher::mesh_to_tolerance(&s, s.domain, &opts, 1e-7, &|_| {});
     assert!(!t.met && t.max_deviation > 1e-7, "{t:?}");
+}
+
+/// A CSG solid (a box with a cylindrical hole, and a separate ball): two
+/// components, genera 1 and 0, with sharp creases everywhere `min`/`max`
+/// switch.
+const CSG: &str = "domain [-1, 1]^3;
+    fn cube(x, y, z, r) = max(max(abs(x), abs(y)), abs(z)) - r;
+    fn holed(x, y, z) = max(cube(x, y, z, 0.5), 0.2 - sqrt(x^2 + y^2));
+    surface min(holed(x + 0.3, y, z), sqrt((x - 0.75)^2 + y^2 + z^2) - 0.2);";
+
+/// Per-cell pruning changes no verdict and no value: through the reference
+/// interpreters (which the octree also runs the pruned programs with) the
+/// mesh is bit for bit the unpruned one; through the JIT it has the same
+/// topology and the same octree.
+#[test]
+fn pruning_changes_nothing() {
+    let s = surface(CSG);
+    assert!(isoc::eval::prune::has_choices(&s.program));
+    let opts = |prune: bool| MeshOptions {
+        octree: OctreeOptions {
+            max_level: 6,
+            min_level: 3,
+            kmax: 1.0,
+            test: TopologyTest::Paper,
+            t: 0.0,
+            prune,
+        },
+        smooth: 2,
+        domain: None,
+    };
+    let reference = Reference(s.program.clone());
+    // The octree does prune: most surface leaves carry a program much
+    // shorter than the full one.
+    let tree = isoc::octree::Octree::build(&reference, s.domain, &opts(true).octree, &|_, _| {});
+    let full = s.program.insts.len();
+    let short = tree
+        .tapes
+        .iter()
+        .flatten()
+        .filter(|t| 2 * t.0.insts.len() < full)
+        .count();
+    assert!(
+        short * 2 > tree.stats.surface_leaves,
+        "{short} short programs"
+    );
+    let (pm, pr) = mesher::mesh_with(&reference, s.domain, &opts(true), &|_| {});
+    let (fm, fr) = mesher::mesh_with(&reference, s.domain, &opts(false), &|_| {});
+    assert_eq!(pm.triangles, fm.triangles, "connectivity");
+    let bits = |m: &Mesh| -> Vec<[u64; 3]> {
+        m.positions
+            .iter()
+            .map(|p| p.to_array().map(f64::to_bits))
+            .collect()
+    };
+    assert_eq!(bits(&pm), bits(&fm), "vertex positions");
+    assert_eq!(pr.octree, fr.octree, "octree");
+    assert_eq!(pr.topology, fr.topology);
+    let (jm, jr) = mesher::mesh(&s, &opts(false), &|_| {});
+    let (qm, qr) = mesher::mesh(&s, &opts(true), &|_| {});
+    assert_eq!(jr.octree, qr.octree, "octree through the JIT");
+    for (m, r) in [(&pm, &pr), (&jm, &jr), (&qm, &qr)] {
+        let t = &r.topology;
+        assert!(t.watertight, "{t:?}");
+        let mut g: Vec<i64> = t.genus.iter().map(|g| g.expect("closed")).collect();
+        g.sort();
+        assert_eq!(g, vec![0, 1], "{t:?}");
+        assert!(!m.triangles.is_empty());
+    }
 }

@@ -100,6 +100,10 @@ pub struct MeshArgs {
     /// Stricter topology test (Plantinga–Vegter small normal variation).
     #[arg(long)]
     pub certify: bool,
+    /// Evaluate every octree cell with the full program (no per-cell
+    /// pruning of min/max branches).
+    #[arg(long = "no-prune")]
+    pub no_prune: bool,
     /// Time at which a surface in `t` is meshed.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub t: f64,
@@ -380,8 +384,13 @@ fn mesh_command(
 
     let t0 = std::time::Instant::now();
     let surface = compile_file(args)?;
-    // Every kind `mesh` calls, compiled now and in parallel.
-    surface.kernels().prepare(&crate::jit::Kind::EVERY);
+    // Every kind `mesh` calls, compiled now and in parallel — unless the
+    // octree will prune the program per cell: its cells then mostly run
+    // the pruned programs in the interpreters, and each kernel compiles
+    // on first use, if any.
+    if m.no_prune || !crate::eval::prune::has_choices(&surface.program) {
+        surface.kernels().prepare(&crate::jit::Kind::EVERY);
+    }
     let compile_ms = t0.elapsed().as_secs_f64() * 1e3;
 
     let bar =
@@ -402,6 +411,7 @@ fn mesh_command(
                 TopologyTest::Paper
             },
             t: m.t,
+            prune: !m.no_prune,
         },
         smooth: m.smooth,
         domain: None,

@@ -383,6 +383,20 @@ fn run<N: Num>(
     input: [N; 4],
     fixup: impl Fn(Dual<N>) -> Dual<N>,
 ) -> Option<Dual<N>> {
+    // Short (pruned) programs run in a buffer on the stack.
+    const STACK: usize = 32;
+    let n = program.insts.len();
+    if n <= STACK {
+        let unknown = Dual {
+            v: N::unknown(),
+            d: [N::unknown(); 3],
+        };
+        let mut vals = [unknown; STACK];
+        for (i, op) in program.insts.iter().enumerate() {
+            vals[i] = fixup(step(op, &vals[..i], input));
+        }
+        return vals[..n].get(program.output.index()).copied();
+    }
     let mut vals: Vec<Dual<N>> = Vec::with_capacity(program.insts.len());
     for op in &program.insts {
         let d = fixup(step(op, &vals, input));

@@ -47,6 +47,7 @@
 pub mod grad;
 pub mod interval;
 pub mod point;
+pub mod prune;
 
 pub use grad::GradEval;
 
@@ -64,6 +65,13 @@ pub trait Evaluator: Sync {
     fn interval(&self, b: [Interval; 4]) -> DecInterval;
     /// Interval value and interval gradient over a box.
     fn grad(&self, b: [Interval; 4]) -> GradEval;
+
+    /// The program this evaluator runs, when it has one: the octree prunes
+    /// it per cell ([`prune`]) and evaluates the pruned programs with the
+    /// reference interpreters. `None` (the default) disables pruning.
+    fn program(&self) -> Option<&Program> {
+        None
+    }
 
     /// `out[i] = point([xs[i], ys[i], zs[i], t])`; all four slices of one
     /// length.
@@ -136,6 +144,9 @@ impl Evaluator for Reference {
     fn grad(&self, b: [Interval; 4]) -> GradEval {
         grad::eval(&self.0, b)
     }
+    fn program(&self) -> Option<&Program> {
+        Some(&self.0)
+    }
 }
 
 impl<E: Evaluator + ?Sized> Evaluator for &E {
@@ -150,6 +161,9 @@ impl<E: Evaluator + ?Sized> Evaluator for &E {
     }
     fn grad(&self, b: [Interval; 4]) -> GradEval {
         (**self).grad(b)
+    }
+    fn program(&self) -> Option<&Program> {
+        (**self).program()
     }
     fn point_batch(&self, xs: &[f64], ys: &[f64], zs: &[f64], t: f64, out: &mut [f64]) {
         (**self).point_batch(xs, ys, zs, t, out)

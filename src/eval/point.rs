@@ -216,8 +216,23 @@ pub fn eval_all(program: &Program, input: [f64; 4]) -> Vec<f64> {
     vals
 }
 
+/// Programs up to this length are evaluated in a buffer on the stack
+/// (pruned programs are short; no allocation per point).
+const STACK: usize = 32;
+
 /// Value of the program at `[x, y, z, t]`.
 pub fn eval(program: &Program, input: [f64; 4]) -> f64 {
+    let n = program.insts.len();
+    if n <= STACK {
+        let mut vals = [0.0f64; STACK];
+        for (i, op) in program.insts.iter().enumerate() {
+            vals[i] = step(op, &vals[..i], input);
+        }
+        return vals[..n]
+            .get(program.output.index())
+            .copied()
+            .unwrap_or(f64::NAN);
+    }
     eval_all(program, input)
         .get(program.output.index())
         .copied()

@@ -48,18 +48,47 @@ pub fn sub(a: Interval, b: Interval) -> Interval {
 
 /// `a · b`: the hull of the four bound products, with `0 · ∞ = 0` (a zero
 /// bound is a real member of its interval, an infinite one is not).
+///
+/// The signs of the operands say which products are extremal (the
+/// classical nine cases), so only those are rounded: directed rounding is
+/// monotone, so the bound of the extremal product is the extremum of the
+/// rounded bounds of all four — the same interval as rounding all four.
 pub fn mul(a: Interval, b: Interval) -> Interval {
     if a.is_empty() || b.is_empty() {
         return Interval::EMPTY;
     }
-    let mut lo = f64::INFINITY;
-    let mut hi = f64::NEG_INFINITY;
-    for x in [a.lo, a.hi] {
-        for y in [b.lo, b.hi] {
-            lo = lo.min(round::mul(x, y, Dir::Down));
-            hi = hi.max(round::mul(x, y, Dir::Up));
-        }
+    let d = |x: f64, y: f64| round::mul(x, y, Dir::Down);
+    let u = |x: f64, y: f64| round::mul(x, y, Dir::Up);
+    // P: non-negative, N: non-positive (and not P), M: straddles 0.
+    #[derive(Clone, Copy)]
+    enum S {
+        P,
+        N,
+        M,
     }
+    let sign = |i: Interval| {
+        if i.lo >= 0.0 {
+            S::P
+        } else if i.hi <= 0.0 {
+            S::N
+        } else {
+            S::M
+        }
+    };
+    let (lo, hi) = match (sign(a), sign(b)) {
+        (S::P, S::P) => (d(a.lo, b.lo), u(a.hi, b.hi)),
+        (S::P, S::N) => (d(a.hi, b.lo), u(a.lo, b.hi)),
+        (S::P, S::M) => (d(a.hi, b.lo), u(a.hi, b.hi)),
+        (S::N, S::P) => (d(a.lo, b.hi), u(a.hi, b.lo)),
+        (S::N, S::N) => (d(a.hi, b.hi), u(a.lo, b.lo)),
+        (S::N, S::M) => (d(a.lo, b.hi), u(a.lo, b.lo)),
+        (S::M, S::P) => (d(a.lo, b.hi), u(a.hi, b.hi)),
+        (S::M, S::N) => (d(a.hi, b.lo), u(a.lo, b.lo)),
+        (S::M, S::M) => (
+            d(a.lo, b.hi).min(d(a.hi, b.lo)),
+            u(a.lo, b.lo).max(u(a.hi, b.hi)),
+        ),
+    };
     Interval::new(lo, hi)
 }
 

@@ -28,6 +28,10 @@ impl Evaluator for Kernels {
         Kernels::grad(self, b)
     }
 
+    fn program(&self) -> Option<&crate::ir::Program> {
+        Some(Kernels::program(self))
+    }
+
     fn point_batch(&self, xs: &[f64], ys: &[f64], zs: &[f64], t: f64, out: &mut [f64]) {
         check_len(out.len(), &[xs.len(), ys.len(), zs.len()]);
         Kernels::point_batch(self, xs, ys, zs, t, out).expect("lengths checked");

@@ -110,18 +110,20 @@ pub fn mesh_with<E: Evaluator + ?Sized>(
 
     progress(Stage::Dual);
     let t0 = Instant::now();
-    let mut values = extract::CornerValues::at_leaves(&tree, f, t);
-    let (active, dual_cells) = extract::active_cells(&tree, f, t, &mut values);
+    // Point evaluations from here on use the leaves' pruned programs.
+    let field = tree.field(f);
+    let mut values = extract::CornerValues::at_leaves(&tree, &field, t);
+    let (active, dual_cells) = extract::active_cells(&tree, &field, t, &mut values);
     let dual_ms = ms(t0);
 
     progress(Stage::Polygonize);
     let t0 = Instant::now();
-    let (mut mesh, ex) = extract::extract(&tree, f, t, &values, &active);
+    let (mut mesh, ex) = extract::extract(&tree, &field, t, &values, &active);
     let polygonize_ms = ms(t0);
 
     progress(Stage::Smooth);
     let t0 = Instant::now();
-    let moves = smooth::smooth(&mut mesh, f, t, opts.smooth);
+    let moves = smooth::smooth(&mut mesh, &field, t, opts.smooth);
     let smooth_ms = ms(t0);
 
     let topo = topology::analyze(&mesh);

@@ -29,21 +29,55 @@
 //!
 //! Any [`Evaluator`] will do. Cells are examined in chunks of `BATCH`:
 //! one [`Evaluator::grad_batch`] over the cells, one
-//! [`Evaluator::interval_batch`] at their centres (the mean-value form),
-//! and one [`Evaluator::interval_batch`] over the cells whose gradient flag
+//! [`Evaluator::interval_batch`] at the centres of the cells whose gradient
+//! flag held (the mean-value form, valid only there), and one
+//! [`Evaluator::interval_batch`] over the cells whose gradient flag
 //! dropped. The proof search below ambiguous leaves
 //! ([`Octree::clear_false_ambiguity`]) is recursive, one cell per call;
 //! the ambiguous leaves run in parallel.
+//!
+//! # Pruning
+//!
+//! When the evaluator exposes its program ([`Evaluator::program`]) and the
+//! program has `min`/`max`/`and`/`or` choices ([`prune::has_choices`]), and
+//! [`OctreeOptions::prune`] is on, each node that is subdivided hands its
+//! children the program pruned on its own box ([`prune::prune`]): the
+//! branches that cannot win anywhere in the node go. The pruned program
+//! gives the same enclosures as the full one on every cell of the subtree
+//! (see [`prune`]'s contract), so every verdict is the one the full program
+//! would give with the same evaluator, and no guarantee changes. Once a
+//! pruned program is at most `1/INTERPRET_RATIO` of the full one, the
+//! subtree is evaluated with the reference interpreters on it
+//! ([`Reference`]) instead of the given evaluator: an interpreter is
+//! several times slower per instruction than the JIT, and pays off only
+//! on much shorter programs. Longer pruned programs are interpreted too
+//! while an `INTERPRET_BUDGET` lasts (a compilation's worth of
+//! interpretation), so that a model whose programs shrink fast never
+//! compiles the JIT's kernels. (The interpreters and the JIT give sound
+//! enclosures that may differ in the last bits, so verdicts may differ from
+//! an unpruned run's where a bound grazes 0; both are sound.) A node whose
+//! prune removed nothing skips the next level's attempt.
+//!
+//! Before the proof search on an ambiguous leaf, a sign change among the
+//! point values at its corners, with `F` defined and continuous on the
+//! leaf, shows that it holds surface (intermediate values), and the search
+//! is skipped.
 
 pub mod criteria;
+pub mod field;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::eval::{Evaluator, WHOLE, WHOLE_GRAD};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::eval::{Evaluator, Reference, WHOLE, WHOLE_GRAD, prune};
 use crate::interval::Interval;
+use crate::ir::Program;
 use crate::surface::Bounds;
 pub use criteria::TopologyTest;
+pub use field::Field;
 
 /// How a leaf ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -85,6 +119,8 @@ pub struct OctreeOptions {
     pub test: TopologyTest,
     /// Time at which the surface is taken.
     pub t: f64,
+    /// Prune the program per subtree (see the module doc's "Pruning").
+    pub prune: bool,
 }
 
 impl Default for OctreeOptions {
@@ -95,6 +131,7 @@ impl Default for OctreeOptions {
             kmax: 1.0,
             test: TopologyTest::Paper,
             t: 0.0,
+            prune: true,
         }
     }
 }
@@ -116,6 +153,11 @@ pub struct Octree {
     pub lo: DVec3,
     pub size: DVec3,
     pub stats: OctreeStats,
+    /// Per node, the pruned program that is valid on a leaf's box, when
+    /// the leaf's subtree was evaluated with one (see the module doc's
+    /// "Pruning"); `None`, or past the end of the vector, elsewhere. Empty
+    /// without pruning. [`Octree::field`] evaluates with them.
+    pub tapes: Vec<Option<Arc<Reference>>>,
 }
 
 /// Deepest level allowed: integer positions must fit in `u32` with room.
@@ -145,42 +187,54 @@ fn examine<E: Evaluator + ?Sized>(
 ) -> Vec<criteria::Verdict> {
     let mut grads = vec![WHOLE_GRAD; cells.len()];
     f.grad_batch(cells, &mut grads);
-    let centres: Vec<[Interval; 4]> = cells
-        .iter()
-        .map(|cell| {
-            let mut c = *cell;
-            for side in c.iter_mut().take(3) {
-                let m = 0.5 * (side.lo + side.hi);
-                *side = Interval { lo: m, hi: m };
-            }
-            c
-        })
-        .collect();
-    let mut at_centres = vec![WHOLE; cells.len()];
+    // The centres of the cells the mean-value form applies to (where the
+    // gradient kernel says `F` is differentiable), and the cells whose
+    // value flag must be asked separately (the others).
+    let centre = |cell: &[Interval; 4]| {
+        let mut c = *cell;
+        for side in c.iter_mut().take(3) {
+            let m = 0.5 * (side.lo + side.hi);
+            *side = Interval { lo: m, hi: m };
+        }
+        c
+    };
+    let (mut centres, mut undiff) = (Vec::new(), Vec::new());
+    for (cell, g) in cells.iter().zip(&grads) {
+        if g.defined {
+            centres.push(centre(cell));
+        } else {
+            undiff.push(*cell);
+        }
+    }
+    let mut at_centres = vec![WHOLE; centres.len()];
     f.interval_batch(&centres, &mut at_centres);
-    let undiff: Vec<[Interval; 4]> = cells
-        .iter()
-        .zip(&grads)
-        .filter(|(_, g)| !g.defined)
-        .map(|(c, _)| *c)
-        .collect();
     let mut on_undiff = vec![WHOLE; undiff.len()];
     f.interval_batch(&undiff, &mut on_undiff);
+    let mut at_centres = centres.iter().zip(at_centres);
     let mut on_undiff = on_undiff.into_iter();
     cells
         .iter()
         .zip(grads)
-        .zip(centres.iter().zip(at_centres))
-        .map(|((cell, g), (centre, fc))| {
+        .map(|(cell, g)| {
+            let mean_value = if g.defined {
+                let (centre, fc) = at_centres
+                    .next()
+                    .expect("one centre per cell with a defined gradient");
+                let c = [0, 1, 2].map(|k| centre[k].lo);
+                Some(criteria::mean_value_form(
+                    fc.iv,
+                    g.grad,
+                    [cell[0], cell[1], cell[2]],
+                    c,
+                ))
+            } else {
+                None
+            };
             let value_defined = g.defined
                 || on_undiff
                     .next()
                     .expect("one value per cell whose gradient flag dropped")
                     .defined;
-            let mean_value = (g.defined && value_defined).then(|| {
-                let c = [0, 1, 2].map(|k| centre[k].lo);
-                criteria::mean_value_form(fc.iv, g.grad, [cell[0], cell[1], cell[2]], c)
-            });
             criteria::judge(&g, value_defined, mean_value, opts.test, opts.kmax)
         })
         .collect()
@@ -188,6 +242,151 @@ fn examine<E: Evaluator + ?Sized>(
 
 /// Cells per batch call.
 const BATCH: usize = 128;
+
+/// A pruned program is run by the reference interpreters once it has at
+/// most `1/INTERPRET_RATIO` of the full program's instructions (the JIT is
+/// roughly this many times faster per instruction; see `docs/jit.md`).
+const INTERPRET_RATIO: usize = 8;
+
+/// With pruning, cells whose program is still long are interpreted too,
+/// until the interpreters have run the equivalent of this many full
+/// programs: compiling the JIT's kernels (on first use) costs about as
+/// much, so a model whose programs shrink fast never compiles them.
+const INTERPRET_BUDGET: u64 = 4096;
+
+/// The program a subtree's cells are evaluated with.
+#[derive(Clone)]
+struct Tape {
+    /// The program pruned on the subtree's root box; `None` without
+    /// pruning.
+    program: Option<Arc<Reference>>,
+    /// Evaluate with `program` (the interpreters) rather than the given
+    /// evaluator.
+    interpret: bool,
+    /// The last prune removed nothing: skip one attempt.
+    skip: bool,
+}
+
+impl Tape {
+    fn same(&self, other: &Tape) -> bool {
+        match (&self.program, &other.program) {
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b) && self.interpret == other.interpret,
+            (None, None) => true,
+            _ => false,
+        }
+    }
+
+    /// Runs `job` on `cells` boxes with the evaluator for this tape: the
+    /// interpreters on a short program, or on a long one while `budget`
+    /// (instructions) lasts; `f` otherwise.
+    fn with<E: Evaluator + ?Sized, R>(
+        &self,
+        f: &E,
+        cells: usize,
+        budget: &AtomicU64,
+        job: impl FnOnce(&dyn Evaluator) -> R,
+    ) -> R {
+        match &self.program {
+            Some(r) if self.interpret => job(r.as_ref()),
+            Some(r) => {
+                let cost = (r.0.insts.len() * cells) as u64;
+                let left = budget.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |b| {
+                    b.checked_sub(cost)
+                });
+                if left.is_ok() {
+                    job(r.as_ref())
+                } else {
+                    job(&EvalRef(f))
+                }
+            }
+            None => job(&EvalRef(f)),
+        }
+    }
+
+    /// The tape for the children (at `level`) of a node with box `cell`
+    /// that this tape evaluated. `full_len` is the full program's length.
+    fn child(&self, cell: [Interval; 4], full_len: usize) -> Tape {
+        let Some(current) = &self.program else {
+            return self.clone();
+        };
+        let interpret = |len: usize| len * INTERPRET_RATIO <= full_len;
+        if self.skip {
+            return Tape {
+                skip: false,
+                interpret: interpret(current.0.insts.len()),
+                program: self.program.clone(),
+            };
+        }
+        let pruned: Program = prune::prune(&current.0, cell);
+        if pruned.insts.len() >= current.0.insts.len() {
+            return Tape {
+                skip: true,
+                interpret: interpret(current.0.insts.len()),
+                program: self.program.clone(),
+            };
+        }
+        Tape {
+            interpret: interpret(pruned.insts.len()),
+            program: Some(Arc::new(Reference(pruned))),
+            skip: false,
+        }
+    }
+}
+
+/// An `Evaluator` behind a reference, unsized or not, as a trait object.
+struct EvalRef<'a, E: ?Sized>(&'a E);
+
+impl<E: Evaluator + ?Sized> Evaluator for EvalRef<'_, E> {
+    fn point(&self, p: [f64; 4]) -> f64 {
+        self.0.point(p)
+    }
+    fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
+        self.0.point_grad(p)
+    }
+    fn interval(&self, b: [Interval; 4]) -> crate::interval::DecInterval {
+        self.0.interval(b)
+    }
+    fn grad(&self, b: [Interval; 4]) -> crate::eval::GradEval {
+        self.0.grad(b)
+    }
+    fn interval_batch(&self, boxes: &[[Interval; 4]], out: &mut [crate::interval::DecInterval]) {
+        self.0.interval_batch(boxes, out)
+    }
+    fn grad_batch(&self, boxes: &[[Interval; 4]], out: &mut [crate::eval::GradEval]) {
+        self.0.grad_batch(boxes, out)
+    }
+}
+
+/// Points per axis of the grid [`straddles`] samples.
+const STRADDLE_GRID: u32 = 3;
+
+/// Whether point values on a `STRADDLE_GRID³` grid over `[a, b]`
+/// (corners, edge and face midpoints, centre) show that the box holds
+/// surface: values of both strict signs, with `F` defined and continuous
+/// on the box (so it vanishes in between).
+fn straddles<E: Evaluator + ?Sized>(f: &E, a: DVec3, b: DVec3, t: f64) -> bool {
+    let (mut neg, mut pos) = (false, false);
+    let n = STRADDLE_GRID - 1;
+    let at = |k: u32, lo: f64, hi: f64| lo + (hi - lo) * (f64::from(k) / f64::from(n));
+    for i in 0..=n {
+        for j in 0..=n {
+            for k in 0..=n {
+                let v = f.point([at(i, a.x, b.x), at(j, a.y, b.y), at(k, a.z, b.z), t]);
+                // A zero value is a zero (up to rounding) whatever the
+                // continuity: no proof could succeed.
+                if v == 0.0 {
+                    return true;
+                }
+                neg |= v < 0.0;
+                pos |= v > 0.0;
+                if neg && pos {
+                    return f.interval(cell_input(a, b, t)).defined;
+                }
+            }
+        }
+    }
+    false
+}
 
 /// Whether interval arithmetic proves the cell free of surface: `F`
 /// defined on it and `0 ∉ F(B)` by the natural extension (one interval
@@ -279,30 +478,27 @@ impl Octree {
             lo: DVec3::from_array(domain.lo),
             size: DVec3::from_array(domain.hi) - DVec3::from_array(domain.lo),
             stats: OctreeStats::default(),
+            tapes: Vec::new(),
         };
-        let mut frontier: Vec<u32> = vec![0];
+        let full = f.program().filter(|p| opts.prune && prune::has_choices(p));
+        let full_len = full.map_or(0, |p| p.insts.len());
+        let root_tape = Tape {
+            program: full.map(|p| Arc::new(Reference(p.clone()))),
+            interpret: false,
+            skip: false,
+        };
+        let budget = AtomicU64::new(INTERPRET_BUDGET * full_len as u64);
+        let mut frontier: Vec<(u32, Tape)> = vec![(0, root_tape)];
+        // Ambiguous leaves at the maximal level, with their tapes, for the
+        // proof search.
+        let mut ambiguous: Vec<(u32, Tape)> = Vec::new();
         let mut evaluated = 0;
         for level in 0..=max_level {
             if frontier.is_empty() {
                 break;
             }
-            let verdicts: Vec<criteria::Verdict> = frontier
-                .par_chunks(BATCH)
-                .flat_map_iter(|chunk| {
-                    let cells: Vec<[Interval; 4]> = chunk
-                        .iter()
-                        .map(|&i| {
-                            let (a, b) = tree.cell_box(&tree.nodes[i as usize]);
-                            cell_input(a, b, opts.t)
-                        })
-                        .collect();
-                    examine(f, &cells, opts)
-                })
-                .collect();
-            evaluated += frontier.len();
-            let mut next = Vec::new();
-            for (&i, v) in frontier.iter().zip(&verdicts) {
-                let leaf = if v.empty {
+            let fate = |v: &criteria::Verdict| -> Option<Leaf> {
+                if v.empty {
                     Some(Leaf::Empty)
                 } else if level < min_level {
                     None
@@ -316,9 +512,62 @@ impl Octree {
                     Some(Leaf::Surface)
                 } else {
                     None
-                };
+                }
+            };
+            let tree_ref = &tree;
+            let judged: Vec<(Option<Leaf>, Tape)> = frontier
+                .par_chunks(BATCH)
+                .flat_map_iter(|chunk| {
+                    let cells: Vec<[Interval; 4]> = chunk
+                        .iter()
+                        .map(|(i, _)| {
+                            let (a, b) = tree_ref.cell_box(&tree_ref.nodes[*i as usize]);
+                            cell_input(a, b, opts.t)
+                        })
+                        .collect();
+                    let mut out = Vec::with_capacity(chunk.len());
+                    let mut start = 0;
+                    while start < chunk.len() {
+                        let tape = &chunk[start].1;
+                        let mut end = start + 1;
+                        while end < chunk.len() && chunk[end].1.same(tape) {
+                            end += 1;
+                        }
+                        let verdicts = tape.with(f, end - start, &budget, |e| {
+                            examine(e, &cells[start..end], opts)
+                        });
+                        for (k, v) in verdicts.iter().enumerate() {
+                            let leaf = fate(v);
+                            let child = match leaf {
+                                None | Some(Leaf::Ambiguous) => {
+                                    tape.child(cells[start + k], full_len)
+                                }
+                                Some(_) => tape.clone(),
+                            };
+                            out.push((leaf, child));
+                        }
+                        start = end;
+                    }
+                    out
+                })
+                .collect();
+            evaluated += frontier.len();
+            let mut next = Vec::new();
+            for ((i, _), (leaf, tape)) in frontier.iter().zip(judged) {
+                let i = *i;
                 match leaf {
-                    Some(l) => tree.nodes[i as usize].leaf = Some(l),
+                    Some(l) => {
+                        tree.nodes[i as usize].leaf = Some(l);
+                        if tape.program.is_some() {
+                            if tree.tapes.len() <= i as usize {
+                                tree.tapes.resize(i as usize + 1, None);
+                            }
+                            tree.tapes[i as usize] = tape.program.clone();
+                        }
+                        if l == Leaf::Ambiguous {
+                            ambiguous.push((i, tape));
+                        }
+                    }
                     None => {
                         let first = tree.nodes.len() as u32;
                         let parent = tree.nodes[i as usize];
@@ -335,7 +584,7 @@ impl Octree {
                                 ],
                                 leaf: None,
                             });
-                            next.push(first + c);
+                            next.push((first + c, tape.clone()));
                         }
                     }
                 }
@@ -343,7 +592,7 @@ impl Octree {
             progress(level, evaluated);
             frontier = next;
         }
-        tree.clear_false_ambiguity(f, opts);
+        tree.clear_false_ambiguity(f, opts, &ambiguous, &budget);
         tree.count();
         tree
     }
@@ -353,20 +602,25 @@ impl Octree {
     /// Each one is split further (up to [`PROOF_DEPTH`] levels, for the
     /// proof only: the octree keeps its leaf) and becomes [`Leaf::Empty`]
     /// when every piece is proved empty. Nothing else is relaxed.
-    fn clear_false_ambiguity<E: Evaluator + ?Sized>(&mut self, f: &E, opts: &OctreeOptions) {
-        let ambiguous: Vec<usize> = (0..self.nodes.len())
-            .filter(|&i| self.nodes[i].leaf == Some(Leaf::Ambiguous))
-            .collect();
+    fn clear_false_ambiguity<E: Evaluator + ?Sized>(
+        &mut self,
+        f: &E,
+        opts: &OctreeOptions,
+        ambiguous: &[(u32, Tape)],
+        budget: &AtomicU64,
+    ) {
         let proved: Vec<bool> = ambiguous
             .par_iter()
-            .map(|&i| {
-                let (a, b) = self.cell_box(&self.nodes[i]);
-                proves_empty(f, a, b, opts, PROOF_DEPTH)
+            .map(|(i, tape)| {
+                let (a, b) = self.cell_box(&self.nodes[*i as usize]);
+                tape.with(f, 1, budget, |e| {
+                    !straddles(e, a, b, opts.t) && proves_empty(e, a, b, opts, PROOF_DEPTH)
+                })
             })
             .collect();
-        for (&i, empty) in ambiguous.iter().zip(proved) {
+        for ((i, _), empty) in ambiguous.iter().zip(proved) {
             if empty {
-                self.nodes[i].leaf = Some(Leaf::Empty);
+                self.nodes[*i as usize].leaf = Some(Leaf::Empty);
             }
         }
     }

@@ -616,6 +616,7 @@ pub fn isoc_mesh(case: &Case, level: u8) -> (isoc::mesh::Mesh, isoc::mesh::meshe
             kmax: 1.0,
             test: isoc::octree::TopologyTest::Paper,
             t: 0.0,
+            prune: true,
         },
         smooth: 0,
         domain: None,
