@@ -10,6 +10,7 @@ use super::Interval;
 use super::round::{self, Dir};
 
 /// `[-hi, -lo]` (exact).
+#[inline]
 pub fn neg(a: Interval) -> Interval {
     if a.is_empty() {
         return Interval::EMPTY;
@@ -30,10 +31,22 @@ pub fn abs(a: Interval) -> Interval {
     }
 }
 
+/// `[0, 0]` (either sign of zero).
+#[inline]
+fn is_zero(a: Interval) -> bool {
+    a.lo == 0.0 && a.hi == 0.0
+}
+
 /// `a + b`.
+#[inline]
 pub fn add(a: Interval, b: Interval) -> Interval {
     if a.is_empty() || b.is_empty() {
         return Interval::EMPTY;
+    }
+    // A zero operand (derivatives are often exactly zero): the sums are
+    // exact, and these are the very floats the rounded sums give.
+    if is_zero(a) || is_zero(b) {
+        return Interval::new(a.lo + b.lo, a.hi + b.hi);
     }
     Interval::new(
         round::add(a.lo, b.lo, Dir::Down),
@@ -42,6 +55,7 @@ pub fn add(a: Interval, b: Interval) -> Interval {
 }
 
 /// `a − b`.
+#[inline]
 pub fn sub(a: Interval, b: Interval) -> Interval {
     add(a, neg(b))
 }
@@ -53,9 +67,23 @@ pub fn sub(a: Interval, b: Interval) -> Interval {
 /// classical nine cases), so only those are rounded: directed rounding is
 /// monotone, so the bound of the extremal product is the extremum of the
 /// rounded bounds of all four — the same interval as rounding all four.
+#[inline]
 pub fn mul(a: Interval, b: Interval) -> Interval {
     if a.is_empty() || b.is_empty() {
         return Interval::EMPTY;
+    }
+    // A zero factor gives exactly zero (`0 · ∞ = 0`), a unit factor the
+    // other operand (zeros as `+0`, as the rounded products give them):
+    // the common cases of derivatives, short-cut.
+    if is_zero(a) || is_zero(b) {
+        return Interval::point(0.0);
+    }
+    let plus = |x: f64| if x == 0.0 { 0.0 } else { x };
+    if a.lo == 1.0 && a.hi == 1.0 {
+        return Interval::new(plus(b.lo), plus(b.hi));
+    }
+    if b.lo == 1.0 && b.hi == 1.0 {
+        return Interval::new(plus(a.lo), plus(a.hi));
     }
     let d = |x: f64, y: f64| round::mul(x, y, Dir::Down);
     let u = |x: f64, y: f64| round::mul(x, y, Dir::Up);
@@ -153,6 +181,7 @@ pub fn div(a: Interval, b: Interval) -> (Interval, bool) {
 }
 
 /// `min(a, b)` (exact).
+#[inline]
 pub fn min(a: Interval, b: Interval) -> Interval {
     if a.is_empty() || b.is_empty() {
         return Interval::EMPTY;
@@ -161,6 +190,7 @@ pub fn min(a: Interval, b: Interval) -> Interval {
 }
 
 /// `max(a, b)` (exact).
+#[inline]
 pub fn max(a: Interval, b: Interval) -> Interval {
     if a.is_empty() || b.is_empty() {
         return Interval::EMPTY;

@@ -230,6 +230,7 @@ impl DecInterval {
 
 /// Enclosure of `op(a)` for every `x ∈ a` where `op` is defined, and whether
 /// `op` is defined and continuous on all of `a`.
+#[inline]
 pub fn unary(op: UnOp, a: Interval) -> (Interval, bool) {
     let (a, ok) = a.normalize();
     let (r, def) = match op {
@@ -254,6 +255,7 @@ pub fn unary(op: UnOp, a: Interval) -> (Interval, bool) {
 }
 
 /// Enclosure of `op(a, b)`, as [`unary`].
+#[inline]
 pub fn binary(op: BinOp, a: Interval, b: Interval) -> (Interval, bool) {
     let (a, oka) = a.normalize();
     let (b, okb) = b.normalize();

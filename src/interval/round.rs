@@ -82,6 +82,7 @@ fn settle(r: f64, err: f64, d: Dir) -> f64 {
 }
 
 /// Bound of `a + b`.
+#[inline]
 pub fn add(a: f64, b: f64, d: Dir) -> f64 {
     let s = a + b;
     if s.is_infinite() {
@@ -102,11 +103,13 @@ pub fn add(a: f64, b: f64, d: Dir) -> f64 {
 }
 
 /// Bound of `a − b`.
+#[inline]
 pub fn sub(a: f64, b: f64, d: Dir) -> f64 {
     add(a, -b, d)
 }
 
 /// Bound of `a · b`, with `0 · x = 0` for every `x` (including `±∞`).
+#[inline]
 pub fn mul(a: f64, b: f64, d: Dir) -> f64 {
     if a == 0.0 || b == 0.0 {
         return 0.0;

@@ -28,11 +28,11 @@
 //! # Evaluation
 //!
 //! Any [`Evaluator`] will do. Cells are examined in chunks of `BATCH`:
-//! one [`Evaluator::grad_batch`] over the cells, one
+//! one [`Evaluator::interval_batch`] over the cells (a cell whose value
+//! enclosure excludes 0, `F` defined, is empty: nothing more is asked),
+//! one [`Evaluator::grad_batch`] over the others, and one
 //! [`Evaluator::interval_batch`] at the centres of the cells whose gradient
-//! flag held (the mean-value form, valid only there), and one
-//! [`Evaluator::interval_batch`] over the cells whose gradient flag
-//! dropped. The proof search below ambiguous leaves
+//! flag held (the mean-value form, valid only there). The proof search below ambiguous leaves
 //! ([`Octree::clear_false_ambiguity`]) is recursive, one cell per call;
 //! the ambiguous leaves run in parallel.
 //!
@@ -176,28 +176,80 @@ fn cell_input(a: DVec3, b: DVec3, t: f64) -> [Interval; 4] {
     ]
 }
 
-/// Interval-gradient evaluations over cells (one batch call), judged by
-/// the criteria; the value kernel is asked too where the gradient kernel's
-/// flag dropped (for a merely non-differentiable F: a third batch call),
-/// and at the centres for the mean-value form (a second batch call).
+/// The criteria's verdicts on cells, from three batch calls: the value
+/// kernel over the cells (a cell it proves empty needs nothing more), the
+/// interval-gradient kernel over the others, and the value kernel at the
+/// centres of those whose gradient flag held (the mean-value form). With
+/// `value_first` false, [`examine_gradient_first`]: the cheaper order when
+/// the gradient kernel is not much dearer than the value kernel (the JIT's,
+/// against the interpreters' five times).
 fn examine<E: Evaluator + ?Sized>(
+    f: &E,
+    cells: &[[Interval; 4]],
+    opts: &OctreeOptions,
+    value_first: bool,
+) -> Vec<criteria::Verdict> {
+    if !value_first {
+        return examine_gradient_first(f, cells, opts);
+    }
+    let mut values = vec![WHOLE; cells.len()];
+    f.interval_batch(cells, &mut values);
+    let excluded = |v: &crate::interval::DecInterval| v.defined && (v.iv.lo > 0.0 || v.iv.hi < 0.0);
+    let open: Vec<[Interval; 4]> = cells
+        .iter()
+        .zip(&values)
+        .filter(|(_, v)| !excluded(v))
+        .map(|(c, _)| *c)
+        .collect();
+    let mut grads = vec![WHOLE_GRAD; open.len()];
+    f.grad_batch(&open, &mut grads);
+    let centres: Vec<[Interval; 4]> = open
+        .iter()
+        .zip(&grads)
+        .filter(|(_, g)| g.defined)
+        .map(|(c, _)| centre(c))
+        .collect();
+    let mut at_centres = vec![WHOLE; centres.len()];
+    f.interval_batch(&centres, &mut at_centres);
+    let mut grads = grads.into_iter();
+    let mut at_centres = centres.iter().zip(at_centres);
+    cells
+        .iter()
+        .zip(&values)
+        .map(|(cell, v)| {
+            if excluded(v) {
+                return criteria::Verdict {
+                    empty: true,
+                    topology_ok: false,
+                    geometry_ok: false,
+                };
+            }
+            let g = grads.next().expect("one gradient per open cell");
+            let mean_value = if g.defined {
+                let (centre, fc) = at_centres
+                    .next()
+                    .expect("one centre per cell with a defined gradient");
+                Some(mean_value_at(&g, fc.iv, cell, centre))
+            } else {
+                None
+            };
+            let value_defined = g.defined || v.defined;
+            criteria::judge(&g, value_defined, mean_value, opts.test, opts.kmax)
+        })
+        .collect()
+}
+
+/// [`examine`] from the interval-gradient kernel over all cells (its value
+/// enclosure decides emptiness), the value kernel at the centres of the
+/// cells whose gradient flag held, and the value kernel over those whose
+/// flag dropped (is `F` itself defined there?).
+fn examine_gradient_first<E: Evaluator + ?Sized>(
     f: &E,
     cells: &[[Interval; 4]],
     opts: &OctreeOptions,
 ) -> Vec<criteria::Verdict> {
     let mut grads = vec![WHOLE_GRAD; cells.len()];
     f.grad_batch(cells, &mut grads);
-    // The centres of the cells the mean-value form applies to (where the
-    // gradient kernel says `F` is differentiable), and the cells whose
-    // value flag must be asked separately (the others).
-    let centre = |cell: &[Interval; 4]| {
-        let mut c = *cell;
-        for side in c.iter_mut().take(3) {
-            let m = 0.5 * (side.lo + side.hi);
-            *side = Interval { lo: m, hi: m };
-        }
-        c
-    };
     let (mut centres, mut undiff) = (Vec::new(), Vec::new());
     for (cell, g) in cells.iter().zip(&grads) {
         if g.defined {
@@ -216,28 +268,44 @@ fn examine<E: Evaluator + ?Sized>(
         .iter()
         .zip(grads)
         .map(|(cell, g)| {
-            let mean_value = if g.defined {
-                let (centre, fc) = at_centres
-                    .next()
-                    .expect("one centre per cell with a defined gradient");
-                let c = [0, 1, 2].map(|k| centre[k].lo);
-                Some(criteria::mean_value_form(
-                    fc.iv,
-                    g.grad,
-                    [cell[0], cell[1], cell[2]],
-                    c,
-                ))
-            } else {
-                None
-            };
             let value_defined = g.defined
                 || on_undiff
                     .next()
                     .expect("one value per cell whose gradient flag dropped")
                     .defined;
+            let mean_value = if g.defined {
+                let (centre, fc) = at_centres
+                    .next()
+                    .expect("one centre per cell with a defined gradient");
+                Some(mean_value_at(&g, fc.iv, cell, centre))
+            } else {
+                None
+            };
             criteria::judge(&g, value_defined, mean_value, opts.test, opts.kmax)
         })
         .collect()
+}
+
+/// The centre of a cell, as a degenerate box.
+fn centre(cell: &[Interval; 4]) -> [Interval; 4] {
+    let mut c = *cell;
+    for side in c.iter_mut().take(3) {
+        let m = 0.5 * (side.lo + side.hi);
+        *side = Interval { lo: m, hi: m };
+    }
+    c
+}
+
+/// The mean-value form over `cell` from the gradient enclosure `g` and the
+/// value enclosure `fc` at its centre.
+fn mean_value_at(
+    g: &crate::eval::GradEval,
+    fc: Interval,
+    cell: &[Interval; 4],
+    centre: &[Interval; 4],
+) -> Interval {
+    let c = [0, 1, 2].map(|k| centre[k].lo);
+    criteria::mean_value_form(fc, g.grad, [cell[0], cell[1], cell[2]], c)
 }
 
 /// Cells per batch call.
@@ -276,30 +344,31 @@ impl Tape {
         }
     }
 
-    /// Runs `job` on `cells` boxes with the evaluator for this tape: the
-    /// interpreters on a short program, or on a long one while `budget`
-    /// (instructions) lasts; `f` otherwise.
+    /// Runs `job` on `cells` boxes with the evaluator for this tape (and
+    /// whether it is the interpreters): the interpreters on a short
+    /// program, or on a long one while `budget` (instructions) lasts; `f`
+    /// otherwise.
     fn with<E: Evaluator + ?Sized, R>(
         &self,
         f: &E,
         cells: usize,
         budget: &AtomicU64,
-        job: impl FnOnce(&dyn Evaluator) -> R,
+        job: impl FnOnce(&dyn Evaluator, bool) -> R,
     ) -> R {
         match &self.program {
-            Some(r) if self.interpret => job(r.as_ref()),
+            Some(r) if self.interpret => job(r.as_ref(), true),
             Some(r) => {
                 let cost = (r.0.insts.len() * cells) as u64;
                 let left = budget.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |b| {
                     b.checked_sub(cost)
                 });
                 if left.is_ok() {
-                    job(r.as_ref())
+                    job(r.as_ref(), true)
                 } else {
-                    job(&EvalRef(f))
+                    job(&EvalRef(f), false)
                 }
             }
-            None => job(&EvalRef(f)),
+            None => job(&EvalRef(f), false),
         }
     }
 
@@ -393,7 +462,12 @@ fn straddles<E: Evaluator + ?Sized>(f: &E, a: DVec3, b: DVec3, t: f64) -> bool {
 /// evaluation), or, failing that, by the mean-value form or the gradient
 /// kernel's own value enclosure ([`examine`]'s test). The cheap interval
 /// kernel first, the gradient kernel only where it is needed.
-fn empty<E: Evaluator + ?Sized>(f: &E, cell: [Interval; 4], opts: &OctreeOptions) -> bool {
+fn empty<E: Evaluator + ?Sized>(
+    f: &E,
+    cell: [Interval; 4],
+    opts: &OctreeOptions,
+    with_gradient: bool,
+) -> bool {
     let r = f.interval(cell);
     if !r.defined {
         return false;
@@ -401,7 +475,7 @@ fn empty<E: Evaluator + ?Sized>(f: &E, cell: [Interval; 4], opts: &OctreeOptions
     if r.iv.lo > 0.0 || r.iv.hi < 0.0 {
         return true;
     }
-    examine(f, &[cell], opts)[0].empty
+    with_gradient && examine(f, &[cell], opts, false)[0].empty
 }
 
 /// Whether the box `[a, b]` is proved free of surface, splitting it up to
@@ -413,7 +487,11 @@ fn proves_empty<E: Evaluator + ?Sized>(
     opts: &OctreeOptions,
     depth: u8,
 ) -> bool {
-    if empty(f, cell_input(a, b, opts.t), opts) {
+    // The leaf itself (`depth == PROOF_DEPTH`) was examined when the tree
+    // was built. Above the last level of the search only the natural
+    // interval is tried (cheap); the gradient kernel's tests (mean-value
+    // form) on the smallest boxes, where they are sharpest.
+    if depth < PROOF_DEPTH && empty(f, cell_input(a, b, opts.t), opts, depth == 0) {
         return true;
     }
     if depth == 0 {
@@ -533,8 +611,8 @@ impl Octree {
                         while end < chunk.len() && chunk[end].1.same(tape) {
                             end += 1;
                         }
-                        let verdicts = tape.with(f, end - start, &budget, |e| {
-                            examine(e, &cells[start..end], opts)
+                        let verdicts = tape.with(f, end - start, &budget, |e, interpreted| {
+                            examine(e, &cells[start..end], opts, interpreted)
                         });
                         for (k, v) in verdicts.iter().enumerate() {
                             let leaf = fate(v);
@@ -613,7 +691,7 @@ impl Octree {
             .par_iter()
             .map(|(i, tape)| {
                 let (a, b) = self.cell_box(&self.nodes[*i as usize]);
-                tape.with(f, 1, budget, |e| {
+                tape.with(f, 1, budget, |e, _| {
                     !straddles(e, a, b, opts.t) && proves_empty(e, a, b, opts, PROOF_DEPTH)
                 })
             })
