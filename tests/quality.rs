@@ -150,7 +150,11 @@ fn the_poor_surfaces_reach_the_target() {
         let (m, r) = mesher::mesh(&s, &MeshOptions::default(), &|_| {});
         assert!(r.topology.watertight, "{name}: {:?}", r.topology);
         assert_eq!(r.aspect_good, aspect_good(&m));
-        assert!(r.aspect_good >= 0.75, "{name}: aspect_good {}", r.aspect_good);
+        assert!(
+            r.aspect_good >= 0.75,
+            "{name}: aspect_good {}",
+            r.aspect_good
+        );
     }
 }
 
@@ -171,10 +175,15 @@ fn smoothing_is_deterministic() {
 fn flip_meshes() -> &'static Vec<(String, Mesh)> {
     static M: OnceLock<Vec<(String, Mesh)>> = OnceLock::new();
     M.get_or_init(|| {
-        [("torus", 5), ("genus2", 5), ("teardrop", 5), ("twoplanes", 5)]
-            .into_iter()
-            .map(|(n, l)| (n.to_string(), raw(&corpus(n), l)))
-            .collect()
+        [
+            ("torus", 5),
+            ("genus2", 5),
+            ("teardrop", 5),
+            ("twoplanes", 5),
+        ]
+        .into_iter()
+        .map(|(n, l)| (n.to_string(), raw(&corpus(n), l)))
+        .collect()
     })
 }
 

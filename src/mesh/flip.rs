@@ -11,11 +11,15 @@
 //! - the edge has exactly two triangles, traversed in opposite directions
 //!   (boundary, non-manifold and misoriented edges are never flipped);
 //! - the new edge `c–d` does not exist yet (so the mesh stays manifold: a
-//!   flip re-triangulates a disk, the quadrilateral, into a disk);
+//!   flip re-triangulates a disk, the quadrilateral, into a disk), as told
+//!   by walking around `c`; when `c`'s triangles do not form one fan (a
+//!   bow-tie vertex) the flip is refused;
 //! - neither new triangle folds: each one's normal agrees with the surface
 //!   normal ([`Mesh::normals`], the direction of ∇f) at its three corners
 //!   (positive dot product), and it does not agree worse than the two old
-//!   triangles did unless it agrees within 30°.
+//!   triangles did unless it agrees within 30°;
+//! - the angle between the two new triangles' normals is no larger than
+//!   between the old pair's, unless it is below 30° (no new ridge).
 //!
 //! Hence a flip never changes the vertex set, the vertex positions, the
 //! orientation (the new triangles traverse the quadrilateral's boundary as
@@ -31,8 +35,12 @@
 //! direction than another), no flip makes the triangles equilateral;
 //! relaxation ([`super::smooth`]) moves the vertices. The fold test uses the
 //! normals at the corners only; it does not test the new triangles against
-//! distant parts of the mesh (nor does any other stage). Flips run
-//! sequentially (a sweep costs little next to one projection per vertex).
+//! distant parts of the mesh (nor does any other stage). The first sweep of
+//! a run picks its candidate edges in parallel (a read-only quality test);
+//! the flips themselves are sequential, each one tested against the
+//! current mesh, so the result does not depend on the thread count.
+//! The adjacency ([`Flips`]) is built once and kept up to date by the
+//! flips, so that smoothing's passes can share it.
 
 use rayon::prelude::*;
 

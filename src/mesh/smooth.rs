@@ -6,7 +6,8 @@
 //! 1. flips edges that improve the worse of their two triangles' aspect
 //!    ratios ([`super::flip`]: connectivity only, topology and orientation
 //!    kept);
-//! 2. moves every vertex towards a relaxation target: of the two points
+//! 2. moves every vertex whose triangles are not all well shaped (aspect
+//!    ratio 0.9 or more) towards a relaxation target: of the two points
 //!    "average of the neighbours" (uniform Laplacian) and "area-weighted
 //!    average of the star's triangle centroids", the one that gives the
 //!    star the better worst aspect ratio. Only the component of the move in
@@ -73,24 +74,12 @@ fn move_is_safe(mesh: &Mesh, star: &Star, v: usize, p: DVec3) -> bool {
     })
 }
 
-/// The least aspect ratio of the triangles around `v` with `v` at `q`.
-fn star_worst(mesh: &Mesh, tris: &[u32], v: usize, q: DVec3) -> f64 {
-    tris.iter()
-        .map(|&ti| {
-            let [a, b, c] = mesh.triangles[ti as usize].map(|i| {
-                if i as usize == v {
-                    q
-                } else {
-                    mesh.positions[i as usize]
-                }
-            });
-            aspect(a, b, c)
-        })
-        .fold(f64::INFINITY, f64::min)
-}
+/// A vertex whose triangles all have at least this aspect ratio stays.
+const SETTLED: f64 = 0.9;
 
 /// Where relaxation would take vertex `v` (before projection), and the
-/// largest distance from `v` to its star's corners: the better, by the
+/// largest distance from `v` to its star's corners (`None`: the vertex
+/// stays, its star being empty or already [`SETTLED`]): the better, by the
 /// star's worst aspect ratio, of the tangential components of the moves
 /// towards the neighbours' average (uniform Laplacian) and towards the
 /// area-weighted average of the star's triangle centroids.
@@ -100,20 +89,19 @@ fn target(mesh: &Mesh, star: &Star, v: usize) -> Option<(DVec3, f64)> {
         return None;
     }
     let p = mesh.positions[v];
-    let (mut bary, mut count) = (DVec3::ZERO, 0.0);
-    let (mut cent, mut weight, mut reach) = (DVec3::ZERO, 0.0, 0.0f64);
+    // The edge opposite `v` in each triangle of the star.
+    let mut opposite = Vec::with_capacity(tris.len());
+    let (mut bary, mut cent, mut weight, mut reach) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0f64);
     for &ti in tris {
         let tri = mesh.triangles[ti as usize];
-        let [a, b, c] = tri.map(|i| mesh.positions[i as usize]);
-        for (&w, q) in tri.iter().zip([a, b, c]) {
-            if w as usize != v {
-                bary += q;
-                count += 1.0;
-                reach = reach.max((q - p).length());
-            }
-        }
-        let area = 0.5 * (b - a).cross(c - a).length();
-        cent += (a + b + c) / 3.0 * area;
+        let s = tri.iter().position(|&w| w as usize == v)?;
+        let b = mesh.positions[tri[(s + 1) % 3] as usize];
+        let c = mesh.positions[tri[(s + 2) % 3] as usize];
+        opposite.push((b, c));
+        bary += b + c;
+        reach = reach.max((b - p).length()).max((c - p).length());
+        let area = 0.5 * (b - p).cross(c - p).length();
+        cent += (p + b + c) / 3.0 * area;
         weight += area;
     }
     let n = mesh.normals[v];
@@ -121,13 +109,22 @@ fn target(mesh: &Mesh, star: &Star, v: usize) -> Option<(DVec3, f64)> {
         let d = q - p;
         p + d - n * d.dot(n)
     };
-    let bary = tangent(bary / count);
+    let bary = tangent(bary / (2 * tris.len()) as f64);
     let cent = if weight > 0.0 {
         tangent(cent / weight)
     } else {
         bary
     };
-    let worst = |q: DVec3| star_worst(mesh, tris, v, q);
+    // The star's least aspect ratio with `v` at `q`.
+    let worst = |q: DVec3| {
+        opposite
+            .iter()
+            .map(|&(b, c)| aspect(q, b, c))
+            .fold(f64::INFINITY, f64::min)
+    };
+    if worst(p) >= SETTLED {
+        return None;
+    }
     let q = if worst(bary) >= worst(cent) {
         bary
     } else {
@@ -147,16 +144,27 @@ fn colour_classes(mesh: &Mesh, star: &Star) -> Vec<Vec<u32>> {
         if star.of(v).is_empty() {
             continue;
         }
+        // Colours below 64 as a bit set, the rest (rare) in `used`.
+        let (mut low, mut high) = (0u64, false);
         used.clear();
         for &ti in star.of(v) {
             for &w in &mesh.triangles[ti as usize] {
                 let c = colour[w as usize];
-                if c != u32::MAX {
+                if c < 64 {
+                    low |= 1 << c;
+                } else if c != u32::MAX {
                     used.push(c);
+                    high = true;
                 }
             }
         }
-        let c = (0..).find(|c| !used.contains(c)).unwrap_or(0);
+        let c = if low != u64::MAX {
+            low.trailing_ones()
+        } else if !high {
+            64
+        } else {
+            (64..).find(|c| !used.contains(c)).unwrap_or(64)
+        };
         colour[v] = c;
         if classes.len() <= c as usize {
             classes.resize_with(c as usize + 1, Vec::new);
