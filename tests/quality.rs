@@ -251,3 +251,54 @@ proptest! {
         }
     }
 }
+
+/// Two triangles over a flat quadrilateral, normals +z.
+fn quad(p: [DVec3; 4], tris: Vec<[u32; 3]>) -> Mesh {
+    Mesh {
+        positions: p.to_vec(),
+        normals: vec![DVec3::Z; 4],
+        ambiguous: vec![false; 4],
+        triangles: tris,
+    }
+}
+
+/// Edge flips on hand-built quadrilaterals: a thin rhombus cut along its
+/// long diagonal is flipped to the short one, keeping the orientation; not
+/// when the surface normals say the new triangles would face the other way,
+/// and a triangle with a repeated corner is left alone.
+#[test]
+fn flips_on_hand_built_quadrilaterals() {
+    let rhombus = [
+        DVec3::new(-1.0, 0.0, 0.0),
+        DVec3::new(0.0, -0.3, 0.0),
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(0.0, 0.3, 0.0),
+    ];
+    // Long diagonal 0–2: [0, 1, 2] and [2, 3, 0], counter-clockwise seen
+    // from +z.
+    let long = vec![[0, 1, 2], [2, 3, 0]];
+    let mut m = quad(rhombus, long.clone());
+    assert_eq!(flip::flip(&mut m), 1);
+    let has =
+        |m: &Mesh, a: u32, b: u32| m.triangles.iter().any(|t| t.contains(&a) && t.contains(&b));
+    assert!(has(&m, 1, 3) && !has(&m, 0, 2), "{:?}", m.triangles);
+    for &t in &m.triangles {
+        assert!(
+            m.face_normal(t).z > 0.0,
+            "orientation lost: {:?}",
+            m.triangles
+        );
+    }
+    assert_eq!(flip::flip(&mut m), 0, "a second run undoes nothing");
+
+    // Normals pointing down: the new triangles would disagree with ∇f.
+    let mut m = quad(rhombus, long.clone());
+    m.normals = vec![-DVec3::Z; 4];
+    assert_eq!(flip::flip(&mut m), 0);
+    assert_eq!(m.triangles, long);
+
+    // A repeated corner: nothing to flip, no panic.
+    let mut m = quad(rhombus, vec![[0, 1, 2], [2, 3, 0], [0, 0, 3]]);
+    flip::flip(&mut m);
+    assert!(m.triangles.contains(&[0, 0, 3]), "{:?}", m.triangles);
+}

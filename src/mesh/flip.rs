@@ -92,15 +92,23 @@ impl Flips {
             .into_par_iter()
             .map(|h| {
                 let (t, i) = (h / 3, h % 3);
+                let degenerate = |t: [u32; 3]| t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
+                if degenerate(tris[t]) {
+                    return NONE;
+                }
                 let (a, b) = (tris[t][i], tris[t][(i + 1) % 3]);
                 // The other triangles holding both ends; exactly one, and
-                // running b → a, for a twin.
+                // running b → a, for a twin (none next to a triangle with a
+                // repeated corner).
                 let mut other = NONE;
                 for &u in star.of(a as usize) {
                     if u as usize == t {
                         continue;
                     }
                     let tr = tris[u as usize];
+                    if degenerate(tr) && tr.contains(&b) {
+                        return NONE;
+                    }
                     if let Some(j) = tr.iter().position(|&w| w == b) {
                         if other != NONE {
                             return NONE;
