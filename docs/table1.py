@@ -4,7 +4,7 @@
     cargo build --release && python3 docs/table1.py > docs/table1.md
 
 Runs `isoc mesh --stats json` on the corpus file of every row with the
-paper's k_max and level (our defaults otherwise: --min-level 3, --smooth 2)
+paper's k_max and level (our defaults otherwise: --min-level 3, --smooth 3)
 and prints a Markdown table: the paper's triangles, vertices and aspect
 share next to ours, our topology verdict and timings.
 """

@@ -72,6 +72,9 @@ fn corpus_is_complete() {
         "chebyshev",
         "decocube",
         "chair_off",
+        "bretzel5",
+        "bretzel2",
+        "lemniscate",
     ] {
         assert!(
             names.iter().any(|n| n.ends_with(&format!("/{want}.iso"))),
@@ -226,7 +229,7 @@ fn corpus_values_match_hand_written_formulas() {
         (x * x + y * y + z * z - a * k * k).powi(2)
             - b * ((z - k).powi(2) - 2.0 * x * x) * ((z + k).powi(2) - 2.0 * y * y)
     }
-    let cases: [(&str, F); 24] = [
+    let cases: [(&str, F); 27] = [
         ("torus_fig1", |x, y, z, _| {
             (1.5 - (x * x + y * y).sqrt()).powi(2) + z * z - 1.35f64.powi(2)
         }),
@@ -312,6 +315,15 @@ fn corpus_values_match_hand_written_formulas() {
             let v = y * phi.cos() + z * phi.sin();
             let w = -y * phi.sin() + z * phi.cos();
             ((x * x + v * v).sqrt() - 1.0).powi(2) + w * w - 0.35f64.powi(2)
+        }),
+        ("bretzel5", |x, y, z, _| {
+            ((x * x + y * y / 4.0 - 1.0) * (x * x / 4.0 + y * y - 1.0)).powi(2) + z * z - 0.1
+        }),
+        ("bretzel2", |x, y, z, _| {
+            (x * x * (1.0 - x * x) - y * y).powi(2) + 0.5 * z * z - 0.01
+        }),
+        ("lemniscate", |x, y, z, _| {
+            (x * x + y * y).powi(2) - (x * x - y * y) + z * z - 0.01
         }),
     ];
     let files = corpus();

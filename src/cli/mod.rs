@@ -94,8 +94,9 @@ pub struct MeshArgs {
     /// Geometry criterion: subdivide while the normals' spread exceeds K.
     #[arg(long, default_value_t = 1.0)]
     pub kmax: f64,
-    /// Tangential smoothing passes.
-    #[arg(long, default_value_t = 2)]
+    /// Smoothing passes (edge flips, then tangential relaxation onto the
+    /// surface).
+    #[arg(long, default_value_t = 3)]
     pub smooth: usize,
     /// Stricter topology test (Plantinga–Vegter small normal variation).
     #[arg(long)]

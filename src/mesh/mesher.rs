@@ -1,7 +1,8 @@
 //! The robust adaptive mesher end to end (Paiva et al. §4): octree →
 //! dual grid → dual marching cubes (MC33) with vertices bisected onto the
-//! surface → tangential smoothing → report. The report's topology is
-//! computed from the mesh itself ([`super::topology`]), never assumed.
+//! surface → smoothing (edge flips and tangential relaxation) → report.
+//! The report's topology is computed from the mesh itself
+//! ([`super::topology`]), never assumed.
 //!
 //! Every stage evaluates the function through one [`Evaluator`] at the
 //! octree's time: [`mesh_with`] takes any evaluator and a domain, [`mesh`]
@@ -20,7 +21,8 @@ use crate::surface::{Bounds, Surface};
 #[derive(Clone, Copy, Debug)]
 pub struct MeshOptions {
     pub octree: OctreeOptions,
-    /// Smoothing passes (`--smooth`).
+    /// Smoothing passes (`--smooth`): edge flips and tangential relaxation
+    /// ([`smooth::smooth`]).
     pub smooth: usize,
     /// The domain; `None` means the surface's own.
     pub domain: Option<Bounds>,
@@ -30,7 +32,7 @@ impl Default for MeshOptions {
     fn default() -> Self {
         MeshOptions {
             octree: OctreeOptions::default(),
-            smooth: 2,
+            smooth: 3,
             domain: None,
         }
     }

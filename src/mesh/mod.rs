@@ -9,6 +9,7 @@
 //! right-hand normal points along `+∇f` (outward = increasing f).
 
 pub mod deviation;
+pub mod flip;
 pub mod mesher;
 pub mod quality;
 pub mod roots;

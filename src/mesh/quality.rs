@@ -1,11 +1,18 @@
 //! Triangle quality: the aspect ratio of Paiva et al. Table 1.
 
+use glam::DVec3;
+
 use super::Mesh;
 
 /// `4√3·area / (|ab|² + |ac|² + |bc|²)`: 1 for an equilateral triangle,
 /// 0 for a degenerate one.
 pub fn aspect_ratio(mesh: &Mesh, t: [u32; 3]) -> f64 {
     let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+    aspect(a, b, c)
+}
+
+/// [`aspect_ratio`] of the triangle `a, b, c`.
+pub fn aspect(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let area = 0.5 * (b - a).cross(c - a).length();
     let s = (b - a).length_squared() + (c - a).length_squared() + (c - b).length_squared();
     if s > 0.0 {

@@ -1,26 +1,56 @@
-//! Tangential smoothing with re-projection (Paiva et al. §4.3, end).
+//! Mesh improvement after extraction: edge flips and tangential
+//! relaxation with re-projection (Paiva et al. §4.3, end; issue 11 item 2).
 //!
-//! One pass moves every vertex towards the barycentre of its star (the
-//! average of its neighbours), keeping only the component of the move in
-//! the tangent plane of the surface at the vertex, then projects it back
-//! onto `f = 0` ([`super::roots::project`]). A move is **skipped** when it
-//! would flip or collapse an incident triangle (its normal would turn by
-//! more than 90° or its area fall below a fraction of the old), or when the
-//! projection finds no zero near the candidate: smoothing never changes the
-//! mesh's connectivity or orientation, so never its topology.
+//! One pass
 //!
-//! Candidates are computed in parallel from the positions at the start of
-//! the pass (the costly part: projection); they are then accepted one by
-//! one against the *current* positions, so two neighbours moving at once
+//! 1. flips edges that improve the worse of their two triangles' aspect
+//!    ratios ([`super::flip`]: connectivity only, topology and orientation
+//!    kept);
+//! 2. moves every vertex whose triangles are not all well shaped (aspect
+//!    ratio 0.9 or more) towards a relaxation target: of the two points
+//!    "average of the neighbours" (uniform Laplacian) and "area-weighted
+//!    average of the star's triangle centroids", the one that gives the
+//!    star the better worst aspect ratio. Only the component of the move in
+//!    the tangent plane of the surface at the vertex is kept, and the point
+//!    is projected back onto `f = 0` ([`super::roots::project`], within half
+//!    the star's reach).
+//!
+//! A move is **skipped** when it would flip or collapse an incident
+//! triangle (its normal would turn by more than 90° or its area fall below
+//! a fraction of the old), or when the projection finds no zero near the
+//! candidate. Vertices on a boundary, non-manifold or misoriented edge
+//! (open surfaces cut by the domain) never move. After the last pass the
+//! flips run once more. Smoothing never changes the vertex set or the
+//! mesh's topology and orientation; every vertex stays on the surface (it
+//! moves only to a projected point).
+//!
+//! The moves are Gauss–Seidel by colour class: the vertices are greedily
+//! coloured so that no two neighbours share a colour; the candidates of
+//! one class are computed in parallel from the current positions (the
+//! costly part: projection), then accepted one by one, so each class sees
+//! the moves of the classes before it (Jacobi moves, all from the old
+//! positions, converge about half as fast on the stretched triangles of
+//! anisotropic dual cells). Two neighbours never move at once, so they
 //! cannot together flip a triangle that each alone would not.
 //!
 //! Evaluation: the projections are sequential per vertex (each evaluation
 //! depends on the last; the vertices run in parallel); the normals after a
 //! pass are one batch of point gradients ([`super::sample::grads_at`]).
+//!
+//! # Limits
+//!
+//! Relaxation does not respect the octree's grading: it pulls vertex
+//! density towards uniform on the star scale, which is what the aspect
+//! ratio rewards but spreads small triangles of a refined region slightly
+//! outward. Pinned boundary vertices keep the triangles along an open
+//! surface's boundary as extracted. Nothing tests a moved triangle against
+//! distant parts of the mesh (two sheets closer than a star's reach).
 
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::flip::Flips;
+use super::quality::aspect;
 use super::roots::project;
 use super::sample::grads_at;
 use super::{Mesh, Star};
@@ -44,46 +74,133 @@ fn move_is_safe(mesh: &Mesh, star: &Star, v: usize, p: DVec3) -> bool {
     })
 }
 
+/// A vertex whose triangles all have at least this aspect ratio stays.
+const SETTLED: f64 = 0.9;
+
+/// Where relaxation would take vertex `v` (before projection), and the
+/// largest distance from `v` to its star's corners (`None`: the vertex
+/// stays, its star being empty or already [`SETTLED`]): the better, by the
+/// star's worst aspect ratio, of the tangential components of the moves
+/// towards the neighbours' average (uniform Laplacian) and towards the
+/// area-weighted average of the star's triangle centroids.
+fn target(mesh: &Mesh, star: &Star, v: usize) -> Option<(DVec3, f64)> {
+    let tris = star.of(v);
+    if tris.is_empty() {
+        return None;
+    }
+    let p = mesh.positions[v];
+    // The edge opposite `v` in each triangle of the star.
+    let mut opposite = Vec::with_capacity(tris.len());
+    let (mut bary, mut cent, mut weight, mut reach) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0f64);
+    for &ti in tris {
+        let tri = mesh.triangles[ti as usize];
+        let s = tri.iter().position(|&w| w as usize == v)?;
+        let b = mesh.positions[tri[(s + 1) % 3] as usize];
+        let c = mesh.positions[tri[(s + 2) % 3] as usize];
+        opposite.push((b, c));
+        bary += b + c;
+        reach = reach.max((b - p).length()).max((c - p).length());
+        let area = 0.5 * (b - p).cross(c - p).length();
+        cent += (p + b + c) / 3.0 * area;
+        weight += area;
+    }
+    let n = mesh.normals[v];
+    let tangent = |q: DVec3| {
+        let d = q - p;
+        p + d - n * d.dot(n)
+    };
+    let bary = tangent(bary / (2 * tris.len()) as f64);
+    let cent = if weight > 0.0 {
+        tangent(cent / weight)
+    } else {
+        bary
+    };
+    // The star's least aspect ratio with `v` at `q`.
+    let worst = |q: DVec3| {
+        opposite
+            .iter()
+            .map(|&(b, c)| aspect(q, b, c))
+            .fold(f64::INFINITY, f64::min)
+    };
+    if worst(p) >= SETTLED {
+        return None;
+    }
+    let q = if worst(bary) >= worst(cent) {
+        bary
+    } else {
+        cent
+    };
+    Some((q, reach))
+}
+
+/// A greedy colouring of the vertices (no two joined by an edge share a
+/// colour): the vertices of each colour, in order.
+fn colour_classes(mesh: &Mesh, star: &Star) -> Vec<Vec<u32>> {
+    let n = mesh.positions.len();
+    let mut colour = vec![u32::MAX; n];
+    let mut classes: Vec<Vec<u32>> = Vec::new();
+    let mut used: Vec<u32> = Vec::new();
+    for v in 0..n {
+        if star.of(v).is_empty() {
+            continue;
+        }
+        // Colours below 64 as a bit set, the rest (rare) in `used`.
+        let (mut low, mut high) = (0u64, false);
+        used.clear();
+        for &ti in star.of(v) {
+            for &w in &mesh.triangles[ti as usize] {
+                let c = colour[w as usize];
+                if c < 64 {
+                    low |= 1 << c;
+                } else if c != u32::MAX {
+                    used.push(c);
+                    high = true;
+                }
+            }
+        }
+        let c = if low != u64::MAX {
+            low.trailing_ones()
+        } else if !high {
+            64
+        } else {
+            (64..).find(|c| !used.contains(c)).unwrap_or(64)
+        };
+        colour[v] = c;
+        if classes.len() <= c as usize {
+            classes.resize_with(c as usize + 1, Vec::new);
+        }
+        classes[c as usize].push(v as u32);
+    }
+    classes
+}
+
 /// Runs `passes` smoothing passes on the surface `f(·, t) = 0`; returns how
 /// many moves were accepted.
 pub fn smooth<E: Evaluator + ?Sized>(mesh: &mut Mesh, f: &E, t: f64, passes: usize) -> usize {
     if passes == 0 || mesh.triangles.is_empty() {
         return 0;
     }
-    let star = Star::new(mesh);
     let mut accepted = 0;
+    let mut flips = Flips::new(mesh);
+    let pinned = flips.pinned(mesh);
     for _ in 0..passes {
-        let candidates: Vec<Option<DVec3>> = (0..mesh.positions.len())
-            .into_par_iter()
-            .map(|v| {
-                let tris = star.of(v);
-                if tris.is_empty() {
-                    return None;
+        flips.run(mesh);
+        let star = Star::new(mesh);
+        for class in colour_classes(mesh, &star) {
+            let candidates: Vec<(u32, DVec3)> = class
+                .par_iter()
+                .filter(|&&v| !pinned[v as usize])
+                .filter_map(|&v| {
+                    let (q, reach) = target(mesh, &star, v as usize)?;
+                    let p = project(f, t, q, 0.5 * reach)?;
+                    Some((v, p))
+                })
+                .collect();
+            for (v, p) in candidates {
+                if move_is_safe(mesh, &star, v as usize, p) {
+                    mesh.positions[v as usize] = p;
+                    accepted += 1;
                 }
-                let p = mesh.positions[v];
-                let (mut sum, mut count, mut reach) = (DVec3::ZERO, 0.0, 0.0f64);
-                for &ti in tris {
-                    for &w in &mesh.triangles[ti as usize] {
-                        if w as usize != v {
-                            let q = mesh.positions[w as usize];
-                            sum += q;
-                            count += 1.0;
-                            reach = reach.max((q - p).length());
-                        }
-                    }
-                }
-                let n = mesh.normals[v];
-                let d = sum / count - p;
-                let tangential = d - n * d.dot(n);
-                project(f, t, p + tangential, 0.5 * reach)
-            })
-            .collect();
-        for (v, c) in candidates.into_iter().enumerate() {
-            if let Some(p) = c
-                && move_is_safe(mesh, &star, v, p)
-            {
-                mesh.positions[v] = p;
-                accepted += 1;
             }
         }
         // Normals follow the surface at the new positions.
@@ -100,5 +217,6 @@ pub fn smooth<E: Evaluator + ?Sized>(mesh: &mut Mesh, f: &E, t: f64, passes: usi
             .collect();
         mesh.normals = normals;
     }
+    flips.run(mesh);
     accepted
 }
