@@ -45,7 +45,11 @@
 //! branches that cannot win anywhere in the node go. The pruned program
 //! gives the same enclosures as the full one on every cell of the subtree
 //! (see [`prune`]'s contract), so every verdict is the one the full program
-//! would give with the same evaluator, and no guarantee changes. Once a
+//! would give with the same evaluator, and no guarantee changes. A node
+//! keeps its parent's program unless pruning makes it a tenth shorter, and
+//! the pruned programs of a tree hold at most `STORE_LIMIT` instructions
+//! together (past it, subtrees keep their parents'), so memory stays
+//! bounded whatever the model. Once a
 //! pruned program is at most `1/INTERPRET_RATIO` of the full one, the
 //! subtree is evaluated with the reference interpreters on it
 //! ([`Reference`]) instead of the given evaluator: an interpreter is
@@ -322,6 +326,10 @@ const INTERPRET_RATIO: usize = 8;
 /// much, so a model whose programs shrink fast never compiles them.
 const INTERPRET_BUDGET: u64 = 4096;
 
+/// Most instructions the pruned programs of one octree may hold together
+/// (about 40 bytes each): past it, subtrees keep their parent's program.
+const STORE_LIMIT: u64 = 1 << 23;
+
 /// The program a subtree's cells are evaluated with.
 #[derive(Clone)]
 struct Tape {
@@ -374,12 +382,13 @@ impl Tape {
 
     /// The tape for the children (at `level`) of a node with box `cell`
     /// that this tape evaluated. `full_len` is the full program's length.
-    fn child(&self, cell: [Interval; 4], full_len: usize) -> Tape {
+    fn child(&self, cell: [Interval; 4], full_len: usize, store: &AtomicU64) -> Tape {
         let Some(current) = &self.program else {
             return self.clone();
         };
         let interpret = |len: usize| len * INTERPRET_RATIO <= full_len;
-        if self.skip {
+        let stored = store.load(Ordering::Relaxed);
+        if self.skip || stored >= STORE_LIMIT {
             return Tape {
                 skip: false,
                 interpret: interpret(current.0.insts.len()),
@@ -387,13 +396,17 @@ impl Tape {
             };
         }
         let pruned: Program = prune::prune(&current.0, cell);
-        if pruned.insts.len() >= current.0.insts.len() {
+        // A new program only when it is a tenth shorter: the programs along
+        // a path from the root shrink geometrically, and the memory they
+        // hold stays within `STORE_LIMIT` instructions.
+        if 10 * pruned.insts.len() > 9 * current.0.insts.len() {
             return Tape {
                 skip: true,
                 interpret: interpret(current.0.insts.len()),
                 program: self.program.clone(),
             };
         }
+        store.fetch_add(pruned.insts.len() as u64, Ordering::Relaxed);
         Tape {
             interpret: interpret(pruned.insts.len()),
             program: Some(Arc::new(Reference(pruned))),
@@ -566,6 +579,7 @@ impl Octree {
             skip: false,
         };
         let budget = AtomicU64::new(INTERPRET_BUDGET * full_len as u64);
+        let store = AtomicU64::new(0);
         let mut frontier: Vec<(u32, Tape)> = vec![(0, root_tape)];
         // Ambiguous leaves at the maximal level, with their tapes, for the
         // proof search.
@@ -618,7 +632,7 @@ impl Octree {
                             let leaf = fate(v);
                             let child = match leaf {
                                 None | Some(Leaf::Ambiguous) => {
-                                    tape.child(cells[start + k], full_len)
+                                    tape.child(cells[start + k], full_len, &store)
                                 }
                                 Some(_) => tape.clone(),
                             };
