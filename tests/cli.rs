@@ -511,3 +511,30 @@ fn mesh_tolerance_reports_deviation() {
     assert_eq!(bad.status.code(), Some(1));
     assert!(stderr(&bad).contains("--tolerance"), "{}", stderr(&bad));
 }
+
+/// A Fidget model meshes the same with and without per-cell pruning
+/// (`--no-prune`): the same octree counts and triangles, closed.
+#[test]
+fn mesh_vm_model_with_and_without_pruning() {
+    let model = models_path("colonnade.vm");
+    let run = |extra: Option<&str>, name: &str| {
+        let out = temp_file(name, b"");
+        let out = out.to_str().unwrap();
+        let mut args = vec!["mesh", &model, "--level", "5", "--stats", "json", "-o", out];
+        args.extend(extra);
+        mesh_stats(&args)
+    };
+    let pruned = run(None, "col_pruned.ply");
+    let full = run(Some("--no-prune"), "col_full.ply");
+    for key in [
+        "triangles",
+        "vertices",
+        "octree_nodes",
+        "ambiguous_cells",
+        "genus",
+        "watertight",
+    ] {
+        assert_eq!(pruned[key], full[key], "{key}");
+    }
+    assert_eq!(pruned["watertight"], true);
+}

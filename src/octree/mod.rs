@@ -229,14 +229,7 @@ fn examine<E: Evaluator + ?Sized>(
                 };
             }
             let g = grads.next().expect("one gradient per open cell");
-            let mean_value = if g.defined {
-                let (centre, fc) = at_centres
-                    .next()
-                    .expect("one centre per cell with a defined gradient");
-                Some(mean_value_at(&g, fc.iv, cell, centre))
-            } else {
-                None
-            };
+            let mean_value = mean_value_next(&g, cell, &mut at_centres);
             let value_defined = g.defined || v.defined;
             criteria::judge(&g, value_defined, mean_value, opts.test, opts.kmax)
         })
@@ -277,14 +270,7 @@ fn examine_gradient_first<E: Evaluator + ?Sized>(
                     .next()
                     .expect("one value per cell whose gradient flag dropped")
                     .defined;
-            let mean_value = if g.defined {
-                let (centre, fc) = at_centres
-                    .next()
-                    .expect("one centre per cell with a defined gradient");
-                Some(mean_value_at(&g, fc.iv, cell, centre))
-            } else {
-                None
-            };
+            let mean_value = mean_value_next(&g, cell, &mut at_centres);
             criteria::judge(&g, value_defined, mean_value, opts.test, opts.kmax)
         })
         .collect()
@@ -300,16 +286,26 @@ fn centre(cell: &[Interval; 4]) -> [Interval; 4] {
     c
 }
 
-/// The mean-value form over `cell` from the gradient enclosure `g` and the
-/// value enclosure `fc` at its centre.
-fn mean_value_at(
+/// The mean-value form over `cell` when its gradient flag held (the next
+/// centre value of `centres` is then its own), else `None`.
+fn mean_value_next<'a>(
     g: &crate::eval::GradEval,
-    fc: Interval,
     cell: &[Interval; 4],
-    centre: &[Interval; 4],
-) -> Interval {
+    centres: &mut impl Iterator<Item = (&'a [Interval; 4], crate::interval::DecInterval)>,
+) -> Option<Interval> {
+    if !g.defined {
+        return None;
+    }
+    let (centre, fc) = centres
+        .next()
+        .expect("one centre per cell with a defined gradient");
     let c = [0, 1, 2].map(|k| centre[k].lo);
-    criteria::mean_value_form(fc, g.grad, [cell[0], cell[1], cell[2]], c)
+    Some(criteria::mean_value_form(
+        fc.iv,
+        g.grad,
+        [cell[0], cell[1], cell[2]],
+        c,
+    ))
 }
 
 /// Cells per batch call.
