@@ -384,7 +384,7 @@ impl Tape {
         };
         let interpret = |len: usize| len * INTERPRET_RATIO <= full_len;
         let stored = store.load(Ordering::Relaxed);
-        if self.skip || stored >= STORE_LIMIT {
+        if self.skip || stored >= STORE_LIMIT || !prune::has_choices(&current.0) {
             return Tape {
                 skip: false,
                 interpret: interpret(current.0.insts.len()),
