@@ -7,7 +7,8 @@
 //!    ratios ([`super::flip`]: connectivity only, topology and orientation
 //!    kept);
 //! 2. moves every vertex whose triangles are not all well shaped (aspect
-//!    ratio 0.9 or more) towards a relaxation target: of the two points
+//!    ratio 0.85 or more; the right isosceles triangles of flat regions,
+//!    0.866, stay) towards a relaxation target: of the two points
 //!    "average of the neighbours" (uniform Laplacian) and "area-weighted
 //!    average of the star's triangle centroids", the one that gives the
 //!    star the better worst aspect ratio. Only the component of the move in
@@ -75,7 +76,7 @@ fn move_is_safe(mesh: &Mesh, star: &Star, v: usize, p: DVec3) -> bool {
 }
 
 /// A vertex whose triangles all have at least this aspect ratio stays.
-const SETTLED: f64 = 0.9;
+const SETTLED: f64 = 0.85;
 
 /// Where relaxation would take vertex `v` (before projection), and the
 /// largest distance from `v` to its star's corners (`None`: the vertex
