@@ -47,9 +47,9 @@
 //! (see [`prune`]'s contract), so every verdict is the one the full program
 //! would give with the same evaluator, and no guarantee changes. A node
 //! keeps its parent's program unless pruning makes it a tenth shorter, and
-//! the pruned programs of a tree hold at most `STORE_LIMIT` instructions
-//! together (past it, subtrees keep their parents'), so memory stays
-//! bounded whatever the model. Once a
+//! the live pruned programs of a tree hold at most about `STORE_LIMIT`
+//! instructions together (past it, subtrees keep their parents'), so
+//! memory stays bounded whatever the model. Once a
 //! pruned program is at most `1/INTERPRET_RATIO` of the full one, the
 //! subtree is evaluated with the reference interpreters on it
 //! ([`Reference`]) instead of the given evaluator: an interpreter is
@@ -318,12 +318,16 @@ const INTERPRET_RATIO: usize = 8;
 
 /// With pruning, cells whose program is still long are interpreted too,
 /// until the interpreters have run the equivalent of this many full
-/// programs: compiling the JIT's kernels (on first use) costs about as
-/// much, so a model whose programs shrink fast never compiles them.
-const INTERPRET_BUDGET: u64 = 4096;
+/// programs: compiling the JIT's value and gradient kernels (on first use,
+/// ≈ 40 µs an instruction) costs about as much as interpreting both
+/// (≈ 55 ns an instruction) this many times, so a model whose programs
+/// shrink fast never compiles them.
+const INTERPRET_BUDGET: u64 = 512;
 
-/// Most instructions the pruned programs of one octree may hold together
-/// (about 40 bytes each): past it, subtrees keep their parent's program.
+/// Most instructions the live pruned programs of one octree may hold
+/// together (about 40 bytes each; counted anew after each level: the
+/// leaves' and the frontier's): past it, subtrees keep their parent's
+/// program.
 const STORE_LIMIT: u64 = 1 << 23;
 
 /// The program a subtree's cells are evaluated with.
@@ -397,7 +401,9 @@ impl Tape {
         // hold stays within `STORE_LIMIT` instructions.
         if 10 * pruned.insts.len() > 9 * current.0.insts.len() {
             return Tape {
-                skip: true,
+                // Nothing at all came off: the next level is unlikely to
+                // do better, skip its attempt.
+                skip: pruned.insts.len() >= current.0.insts.len(),
                 interpret: interpret(current.0.insts.len()),
                 program: self.program.clone(),
             };
@@ -507,7 +513,7 @@ fn proves_empty<E: Evaluator + ?Sized>(
         return false;
     }
     let m = (a + b) * 0.5;
-    (0..8).all(|c: u32| {
+    let child = |c: u32| {
         let pick = |k: usize, lo: f64, mid: f64, hi: f64| {
             if (c >> k) & 1 == 0 {
                 (lo, mid)
@@ -518,13 +524,23 @@ fn proves_empty<E: Evaluator + ?Sized>(
         let (x0, x1) = pick(0, a.x, m.x, b.x);
         let (y0, y1) = pick(1, a.y, m.y, b.y);
         let (z0, z1) = pick(2, a.z, m.z, b.z);
-        proves_empty(
-            f,
-            DVec3::new(x0, y0, z0),
-            DVec3::new(x1, y1, z1),
-            opts,
-            depth - 1,
-        )
+        (DVec3::new(x0, y0, z0), DVec3::new(x1, y1, z1))
+    };
+    // Every child must be proved empty; the one whose centre value is
+    // nearest 0 is the likeliest to fail, so it goes first (the answer
+    // does not depend on the order, only the work).
+    let mut order: Vec<(f64, u32)> = (0..8u32)
+        .map(|c| {
+            let (lo, hi) = child(c);
+            let p = (lo + hi) * 0.5;
+            let v = f.point([p.x, p.y, p.z, opts.t]).abs();
+            (if v.is_nan() { 0.0 } else { v }, c)
+        })
+        .collect();
+    order.sort_by(|x, y| x.0.total_cmp(&y.0));
+    order.iter().all(|&(_, c)| {
+        let (lo, hi) = child(c);
+        proves_empty(f, lo, hi, opts, depth - 1)
     })
 }
 
@@ -576,6 +592,7 @@ impl Octree {
         };
         let budget = AtomicU64::new(INTERPRET_BUDGET * full_len as u64);
         let store = AtomicU64::new(0);
+        let mut leaf_live = 0u64;
         let mut frontier: Vec<(u32, Tape)> = vec![(0, root_tape)];
         // Ambiguous leaves at the maximal level, with their tapes, for the
         // proof search.
@@ -641,11 +658,23 @@ impl Octree {
                 .collect();
             evaluated += frontier.len();
             let mut next = Vec::new();
+            // The programs alive after this level: the leaves' (kept to
+            // the end) and the next frontier's; the store counts them.
+            let mut last: *const Reference = std::ptr::null();
+            let mut counted = |tape: &Tape| match &tape.program {
+                Some(r) if !std::ptr::eq(Arc::as_ptr(r), last) => {
+                    last = Arc::as_ptr(r);
+                    r.0.insts.len() as u64
+                }
+                _ => 0,
+            };
+            let mut frontier_live = 0;
             for ((i, _), (leaf, tape)) in frontier.iter().zip(judged) {
                 let i = *i;
                 match leaf {
                     Some(l) => {
                         tree.nodes[i as usize].leaf = Some(l);
+                        leaf_live += counted(&tape);
                         if tape.program.is_some() {
                             if tree.tapes.len() <= i as usize {
                                 tree.tapes.resize(i as usize + 1, None);
@@ -657,6 +686,7 @@ impl Octree {
                         }
                     }
                     None => {
+                        frontier_live += counted(&tape);
                         let first = tree.nodes.len() as u32;
                         let parent = tree.nodes[i as usize];
                         tree.nodes[i as usize].first_child = first;
@@ -677,6 +707,7 @@ impl Octree {
                     }
                 }
             }
+            store.store(leaf_live + frontier_live, Ordering::Relaxed);
             progress(level, evaluated);
             frontier = next;
         }
