@@ -56,8 +56,9 @@
 //! several times slower per instruction than the JIT, and pays off only
 //! on much shorter programs. Longer pruned programs are interpreted too
 //! while an `INTERPRET_BUDGET` lasts (a compilation's worth of
-//! interpretation), so that a model whose programs shrink fast never
-//! compiles the JIT's kernels. (The interpreters and the JIT give sound
+//! interpretation, spent a level at a time so that the choice never
+//! depends on thread timing), so that a model whose programs shrink fast
+//! never compiles the JIT's kernels. (The interpreters and the JIT give sound
 //! enclosures that may differ in the last bits, so verdicts may differ from
 //! an unpruned run's where a bound grazes 0; both are sound.) A node whose
 //! prune removed nothing skips the next level's attempt.
@@ -352,31 +353,28 @@ impl Tape {
         }
     }
 
-    /// Runs `job` on `cells` boxes with the evaluator for this tape (and
-    /// whether it is the interpreters): the interpreters on a short
-    /// program, or on a long one while `budget` (instructions) lasts; `f`
+    /// Runs `job` with the evaluator for this tape (and whether it is the
+    /// interpreters): the interpreters on a short program, or on a long
+    /// one when `long` says so (decided per level, see [`Budget`]); `f`
     /// otherwise.
     fn with<E: Evaluator + ?Sized, R>(
         &self,
         f: &E,
-        cells: usize,
-        budget: &AtomicU64,
+        long: bool,
         job: impl FnOnce(&dyn Evaluator, bool) -> R,
     ) -> R {
         match &self.program {
-            Some(r) if self.interpret => job(r.as_ref(), true),
-            Some(r) => {
-                let cost = (r.0.insts.len() * cells) as u64;
-                let left = budget.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |b| {
-                    b.checked_sub(cost)
-                });
-                if left.is_ok() {
-                    job(r.as_ref(), true)
-                } else {
-                    job(&EvalRef(f), false)
-                }
-            }
-            None => job(&EvalRef(f), false),
+            Some(r) if self.interpret || long => job(r.as_ref(), true),
+            _ => job(&EvalRef(f), false),
+        }
+    }
+
+    /// Instructions this tape costs per cell when it is long (pruned but
+    /// not short), else 0.
+    fn long_cost(&self) -> u64 {
+        match &self.program {
+            Some(r) if !self.interpret => r.0.insts.len() as u64,
+            _ => 0,
         }
     }
 
@@ -414,6 +412,28 @@ impl Tape {
             program: Some(Arc::new(Reference(pruned))),
             skip: false,
         }
+    }
+}
+
+/// The interpretation budget for long pruned programs, spent a level at a
+/// time (so the choice of evaluator never depends on thread timing): a
+/// level whose long programs fit in what is left is interpreted; the first
+/// that does not, and every one after it, goes to the given evaluator.
+struct Budget {
+    left: u64,
+    open: bool,
+}
+
+impl Budget {
+    /// Whether the long programs of a stage costing `cost` instructions are
+    /// interpreted.
+    fn spend(&mut self, cost: u64) -> bool {
+        if self.open && cost <= self.left {
+            self.left -= cost;
+        } else if cost > 0 {
+            self.open = false;
+        }
+        self.open
     }
 }
 
@@ -590,7 +610,10 @@ impl Octree {
             interpret: false,
             skip: false,
         };
-        let budget = AtomicU64::new(INTERPRET_BUDGET * full_len as u64);
+        let mut budget = Budget {
+            left: INTERPRET_BUDGET * full_len as u64,
+            open: true,
+        };
         let store = AtomicU64::new(0);
         let mut leaf_live = 0u64;
         let mut frontier: Vec<(u32, Tape)> = vec![(0, root_tape)];
@@ -619,6 +642,7 @@ impl Octree {
                     None
                 }
             };
+            let long = budget.spend(frontier.iter().map(|(_, t)| t.long_cost()).sum());
             let tree_ref = &tree;
             let judged: Vec<(Option<Leaf>, Tape)> = frontier
                 .par_chunks(BATCH)
@@ -638,7 +662,7 @@ impl Octree {
                         while end < chunk.len() && chunk[end].1.same(tape) {
                             end += 1;
                         }
-                        let verdicts = tape.with(f, end - start, &budget, |e, interpreted| {
+                        let verdicts = tape.with(f, long, |e, interpreted| {
                             examine(e, &cells[start..end], opts, interpreted)
                         });
                         for (k, v) in verdicts.iter().enumerate() {
@@ -711,7 +735,9 @@ impl Octree {
             progress(level, evaluated);
             frontier = next;
         }
-        tree.clear_false_ambiguity(f, opts, &ambiguous, &budget);
+        // The proof search: about ten evaluations a leaf.
+        let long = budget.spend(10 * ambiguous.iter().map(|(_, t)| t.long_cost()).sum::<u64>());
+        tree.clear_false_ambiguity(f, opts, &ambiguous, long);
         tree.count();
         tree
     }
@@ -726,13 +752,13 @@ impl Octree {
         f: &E,
         opts: &OctreeOptions,
         ambiguous: &[(u32, Tape)],
-        budget: &AtomicU64,
+        long: bool,
     ) {
         let proved: Vec<bool> = ambiguous
             .par_iter()
             .map(|(i, tape)| {
                 let (a, b) = self.cell_box(&self.nodes[*i as usize]);
-                tape.with(f, 1, budget, |e, _| {
+                tape.with(f, long, |e, _| {
                     !straddles(e, a, b, opts.t) && proves_empty(e, a, b, opts, PROOF_DEPTH)
                 })
             })
