@@ -173,21 +173,9 @@ impl Surface {
     /// [`Surface::point_grad`] at every `[x, y, z]` of `pts` at time `t`
     /// (batch point-gradient kernel).
     pub fn point_grad_batch(&self, pts: &[[f64; 3]], t: f64) -> Vec<(f64, [f64; 3])> {
-        let col = |k: usize| pts.iter().map(|p| p[k]).collect::<Vec<f64>>();
-        let (xs, ys, zs) = (col(0), col(1), col(2));
-        let mut out = vec![0.0; 4 * pts.len()];
-        match self.kernels.point_grad_batch(&xs, &ys, &zs, t, &mut out) {
-            Ok(()) => out
-                .chunks_exact(4)
-                .map(|r| (r[0], [r[1], r[2], r[3]]))
-                .collect(),
-            // The kernel failed to compile: the single-point path falls
-            // back to the reference evaluator.
-            Err(_) => pts
-                .iter()
-                .map(|p| self.point_grad([p[0], p[1], p[2], t]))
-                .collect(),
-        }
+        let mut out = vec![(0.0, [0.0; 3]); pts.len()];
+        Evaluator::point_grad_batch(self.kernels(), pts, t, &mut out);
+        out
     }
 
     /// Enclosure of f over a box `[x, y, z, t]` (interval kernel).
@@ -217,50 +205,17 @@ impl Surface {
 
     /// Interval-gradient enclosures over many boxes (batch kernel).
     pub fn grad_batch(&self, boxes: &[[Interval; 4]]) -> Vec<GradEval> {
-        let input = flatten_boxes(boxes);
-        let mut out = vec![0.0; boxes.len() * 8];
-        let mut defined = vec![false; boxes.len()];
-        self.kernels
-            .grad_batch(&input, &mut out, &mut defined)
-            .expect("buffers sized for the batch");
-        out.chunks_exact(8)
-            .zip(defined)
-            .map(|(o, d)| GradEval {
-                value: Interval { lo: o[0], hi: o[1] },
-                grad: [1, 2, 3].map(|k| Interval {
-                    lo: o[2 * k],
-                    hi: o[2 * k + 1],
-                }),
-                defined: d,
-            })
-            .collect()
+        let mut out = vec![crate::eval::WHOLE_GRAD; boxes.len()];
+        Evaluator::grad_batch(self.kernels(), boxes, &mut out);
+        out
     }
 
     /// Interval enclosures over many boxes (batch kernel).
     pub fn interval_batch(&self, boxes: &[[Interval; 4]]) -> Vec<DecInterval> {
-        let input = flatten_boxes(boxes);
-        let mut out = vec![0.0; boxes.len() * 2];
-        let mut defined = vec![false; boxes.len()];
-        self.kernels
-            .interval_batch(&input, &mut out, &mut defined)
-            .expect("buffers sized for the batch");
-        out.chunks_exact(2)
-            .zip(defined)
-            .map(|(o, d)| DecInterval {
-                iv: Interval { lo: o[0], hi: o[1] },
-                defined: d,
-            })
-            .collect()
+        let mut out = vec![crate::eval::WHOLE; boxes.len()];
+        Evaluator::interval_batch(self.kernels(), boxes, &mut out);
+        out
     }
-}
-
-/// Boxes as the batch kernels read them: 8 f64 per box,
-/// `[x.lo, x.hi, y.lo, y.hi, z.lo, z.hi, t.lo, t.hi]` (see [`crate::jit`]).
-fn flatten_boxes(boxes: &[[Interval; 4]]) -> Vec<f64> {
-    boxes
-        .iter()
-        .flat_map(|b| b.iter().flat_map(|i| [i.lo, i.hi]))
-        .collect()
 }
 
 /// A surface evaluates through its JIT kernels (see [`crate::eval`]); the

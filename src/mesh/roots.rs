@@ -13,8 +13,9 @@
 //!   the zero is not reached; the midpoint otherwise or when three steps
 //!   have not halved the bracket. A point where `f` is exactly 0 ends the
 //!   search. Convergence is fast on smooth and on piecewise-linear
-//!   functions, and within 4/3 of bisection's step count in the worst
-//!   case.
+//!   functions; in the worst case every fourth step halves the bracket,
+//!   so at most four times bisection's step count (and never more than
+//!   `MAX_STEPS`).
 //! - [`bisect_batch`]: [`bisect`] on many segments in lock-step, one
 //!   [`Evaluator::point_batch`] call per step over the segments still
 //!   running. Per segment it evaluates the same points in the same order

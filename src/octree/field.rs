@@ -68,16 +68,19 @@ impl Octree {
 impl<E: Evaluator + ?Sized> Field<'_, E> {
     /// The pruned program of the leaf holding `p`, if it has one.
     fn tape_at(&self, p: [f64; 3]) -> Option<&Reference> {
-        let tree = self.tree;
-        if tree.tapes.is_empty() || tree.nodes.is_empty() {
+        if self.tree.tapes.is_empty() || self.tree.nodes.is_empty() {
             return None;
         }
-        let p = DVec3::from_array(p);
+        let leaf = self.leaf_at(DVec3::from_array(p))?;
+        self.tree.tapes.get(leaf)?.as_deref()
+    }
+
+    /// The leaf whose (closed) box holds `p`, if `p` is in Ω.
+    fn leaf_at(&self, p: DVec3) -> Option<usize> {
+        let tree = self.tree;
         // Written so that NaN coordinates fail the test.
         let inside = |a: DVec3, b: DVec3| (0..3).all(|k| a[k] <= p[k] && p[k] <= b[k]);
-        // The point's cell at the deepest level, by integer coordinates;
-        // rounding may put a point within an ulp of a face in the
-        // neighbour, which the final test catches (then `f` evaluates).
+        // The point's cell at the deepest level, by integer coordinates.
         let u = (p - tree.lo) / tree.size * self.scale;
         if !(0..3).all(|k| u[k] >= 0.0 && u[k] <= self.scale) {
             return None;
@@ -92,20 +95,16 @@ impl<E: Evaluator + ?Sized> Field<'_, E> {
             i = self.children[i] as usize + c;
             level += 1;
         }
-        let tape = tree.tapes.get(i)?.as_deref()?;
         // Far from the leaf's faces (in units of the deepest cells) the
         // integer descent cannot be wrong; near them, check the box.
-        let level = u32::from(self.depth - level);
-        let safe = (0..3).all(|k| {
-            let r = (u[k] / f64::from(1u32 << level)).fract();
-            (1e-6..=1.0 - 1e-6).contains(&r)
-        });
-        if safe {
-            return Some(tape);
-        }
-        let (a, b) = tree.cell_box(&tree.nodes[i]);
-        if inside(a, b) {
-            return Some(tape);
+        let cells = f64::from(1u32 << (self.depth - level));
+        let safe = (0..3).all(|k| (1e-6..=1.0 - 1e-6).contains(&(u[k] / cells).fract()));
+        let in_box = |i: usize| {
+            let (a, b) = tree.cell_box(&tree.nodes[i]);
+            inside(a, b)
+        };
+        if safe || in_box(i) {
+            return Some(i);
         }
         // Rounding put the point on the wrong side of a face: descend
         // again by the splitting planes themselves.
@@ -116,22 +115,20 @@ impl<E: Evaluator + ?Sized> Field<'_, E> {
             let c = (0..3).fold(0, |c, k| c | (usize::from(p[k] >= split[k]) << k));
             i = first + c;
         }
-        let tape = tree.tapes.get(i)?.as_deref()?;
-        let (a, b) = tree.cell_box(&tree.nodes[i]);
-        inside(a, b).then_some(tape)
+        in_box(i).then_some(i)
     }
 }
 
 impl<E: Evaluator + ?Sized> Evaluator for Field<'_, E> {
     fn point(&self, p: [f64; 4]) -> f64 {
         match self.tape_at([p[0], p[1], p[2]]) {
-            Some(r) => eval::point::eval(&r.0, p),
+            Some(r) => r.point(p),
             None => self.f.point(p),
         }
     }
     fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
         match self.tape_at([p[0], p[1], p[2]]) {
-            Some(r) => eval::grad::eval_point(&r.0, p),
+            Some(r) => r.point_grad(p),
             None => self.f.point_grad(p),
         }
     }
@@ -153,7 +150,7 @@ impl<E: Evaluator + ?Sized> Evaluator for Field<'_, E> {
         let mut rest = Vec::new();
         for i in 0..out.len() {
             match self.tape_at([xs[i], ys[i], zs[i]]) {
-                Some(r) => out[i] = eval::point::eval(&r.0, [xs[i], ys[i], zs[i], t]),
+                Some(r) => out[i] = r.point([xs[i], ys[i], zs[i], t]),
                 None => rest.push(i),
             }
         }
@@ -176,7 +173,7 @@ impl<E: Evaluator + ?Sized> Evaluator for Field<'_, E> {
         let mut rest = Vec::new();
         for (i, p) in pts.iter().enumerate() {
             match self.tape_at(*p) {
-                Some(r) => out[i] = eval::grad::eval_point(&r.0, [p[0], p[1], p[2], t]),
+                Some(r) => out[i] = r.point_grad([p[0], p[1], p[2], t]),
                 None => rest.push(i),
             }
         }

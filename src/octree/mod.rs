@@ -365,7 +365,9 @@ impl Tape {
     ) -> R {
         match &self.program {
             Some(r) if self.interpret || long => job(r.as_ref(), true),
-            _ => job(&EvalRef(f), false),
+            // `&E` is a sized evaluator (the blanket impl), so it can be a
+            // trait object whatever `E` is.
+            _ => job(&f, false),
         }
     }
 
@@ -378,7 +380,7 @@ impl Tape {
         }
     }
 
-    /// The tape for the children (at `level`) of a node with box `cell`
+    /// The tape for the children of a node with box `cell`
     /// that this tape evaluated. `full_len` is the full program's length.
     fn child(&self, cell: [Interval; 4], full_len: usize, store: &AtomicU64) -> Tape {
         let Some(current) = &self.program else {
@@ -434,30 +436,6 @@ impl Budget {
             self.open = false;
         }
         self.open
-    }
-}
-
-/// An `Evaluator` behind a reference, unsized or not, as a trait object.
-struct EvalRef<'a, E: ?Sized>(&'a E);
-
-impl<E: Evaluator + ?Sized> Evaluator for EvalRef<'_, E> {
-    fn point(&self, p: [f64; 4]) -> f64 {
-        self.0.point(p)
-    }
-    fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
-        self.0.point_grad(p)
-    }
-    fn interval(&self, b: [Interval; 4]) -> crate::interval::DecInterval {
-        self.0.interval(b)
-    }
-    fn grad(&self, b: [Interval; 4]) -> crate::eval::GradEval {
-        self.0.grad(b)
-    }
-    fn interval_batch(&self, boxes: &[[Interval; 4]], out: &mut [crate::interval::DecInterval]) {
-        self.0.interval_batch(boxes, out)
-    }
-    fn grad_batch(&self, boxes: &[[Interval; 4]], out: &mut [crate::eval::GradEval]) {
-        self.0.grad_batch(boxes, out)
     }
 }
 
