@@ -383,26 +383,40 @@ fn run<N: Num>(
     input: [N; 4],
     fixup: impl Fn(Dual<N>) -> Dual<N>,
 ) -> Option<Dual<N>> {
-    // Short (pruned) programs run in a buffer on the stack.
-    const STACK: usize = 32;
-    let n = program.insts.len();
-    if n <= STACK {
-        let unknown = Dual {
-            v: N::unknown(),
-            d: [N::unknown(); 3],
-        };
-        let mut vals = [unknown; STACK];
-        for (i, op) in program.insts.iter().enumerate() {
-            vals[i] = fixup(step(op, &vals[..i], input));
+    // Short (pruned) programs run in a buffer on the stack, sized to the
+    // program (filling it is part of the cost).
+    match program.insts.len() {
+        0..=8 => run_on_stack::<N, 8>(program, input, fixup),
+        9..=16 => run_on_stack::<N, 16>(program, input, fixup),
+        17..=32 => run_on_stack::<N, 32>(program, input, fixup),
+        _ => {
+            let mut vals: Vec<Dual<N>> = Vec::with_capacity(program.insts.len());
+            for op in &program.insts {
+                let d = fixup(step(op, &vals, input));
+                vals.push(d);
+            }
+            vals.get(program.output.index()).copied()
         }
-        return vals[..n].get(program.output.index()).copied();
     }
-    let mut vals: Vec<Dual<N>> = Vec::with_capacity(program.insts.len());
-    for op in &program.insts {
-        let d = fixup(step(op, &vals, input));
-        vals.push(d);
+}
+
+/// [`run`] for programs of at most `S` instructions.
+#[inline]
+fn run_on_stack<N: Num, const S: usize>(
+    program: &Program,
+    input: [N; 4],
+    fixup: impl Fn(Dual<N>) -> Dual<N>,
+) -> Option<Dual<N>> {
+    let n = program.insts.len();
+    let unknown = Dual {
+        v: N::unknown(),
+        d: [N::unknown(); 3],
+    };
+    let mut vals = [unknown; S];
+    for (i, op) in program.insts.iter().enumerate() {
+        vals[i] = fixup(step(op, &vals[..i], input));
     }
-    vals.get(program.output.index()).copied()
+    vals[..n].get(program.output.index()).copied()
 }
 
 /// Interval value and gradient over the box `[x, y, z, t]`.

@@ -57,8 +57,26 @@ pub fn eval_all(program: &Program, input: [Interval; 4]) -> Vec<DecInterval> {
 
 /// Enclosure of the program over the box `[x, y, z, t]`.
 pub fn eval(program: &Program, input: [Interval; 4]) -> DecInterval {
-    eval_all(program, input)
+    // Short (pruned) programs run in a buffer on the stack, sized to the
+    // program (filling it is part of the cost).
+    let out = match program.insts.len() {
+        0..=8 => eval_on_stack::<8>(program, input),
+        9..=16 => eval_on_stack::<16>(program, input),
+        17..=32 => eval_on_stack::<32>(program, input),
+        _ => eval_all(program, input)
+            .get(program.output.index())
+            .copied(),
+    };
+    out.unwrap_or(DecInterval::new(Interval::ENTIRE, false))
+}
+
+/// [`eval`] for programs of at most `S` instructions.
+fn eval_on_stack<const S: usize>(program: &Program, input: [Interval; 4]) -> Option<DecInterval> {
+    let mut vals = [DecInterval::new(Interval::ENTIRE, false); S];
+    for (i, op) in program.insts.iter().enumerate() {
+        vals[i] = step(op, &vals[..i], input);
+    }
+    vals[..program.insts.len()]
         .get(program.output.index())
         .copied()
-        .unwrap_or(DecInterval::new(Interval::ENTIRE, false))
 }

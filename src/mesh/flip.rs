@@ -257,6 +257,12 @@ impl Flips {
 }
 
 impl Flips {
+    /// The aspect ratio of every triangle as the last [`Flips::run`] left
+    /// the mesh.
+    pub fn aspects(&self) -> &[f64] {
+        &self.aspect
+    }
+
     /// Per vertex, whether it lies on an edge that is not an interior
     /// manifold edge (boundary, non-manifold or misoriented). Flips never
     /// change that set.

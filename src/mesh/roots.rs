@@ -22,8 +22,9 @@
 //!   and stops at the same step as [`bisect`], so its results are bit for
 //!   bit [`bisect`]'s (the evaluator's batch equals its single calls).
 //! - [`project`]: a point near the surface moved onto it along the gradient
-//!   line (Newton's method, then a sign-change bracket refined by
-//!   [`bisect`]), refusing to move farther than a given distance, so that a
+//!   line (Newton's step; the segment to Newton's point when the sign
+//!   changes on it, else a sign-change bracket grown around that point;
+//!   refined by [`bisect`]), refusing to move farther than a given distance, so that a
 //!   point never jumps to another sheet of the surface. Each evaluation
 //!   depends on the last, so it evaluates one point at a time.
 
@@ -345,19 +346,40 @@ pub fn bisect_batch<E: Evaluator + ?Sized>(f: &E, t: f64, segments: &[Segment]) 
 /// `p` moved onto `f(·, t) = 0` along its gradient line, or `None` when no
 /// zero lies within `max_dist` of `p` along that line.
 pub fn project<E: Evaluator + ?Sized>(f: &E, t: f64, p: DVec3, max_dist: f64) -> Option<DVec3> {
+    project_along(f, t, p, max_dist).map(|(q, _)| q)
+}
+
+/// [`project`], also returning the gradient of `f` at `p` (the start of
+/// the line; finite and non-zero).
+pub fn project_along<E: Evaluator + ?Sized>(
+    f: &E,
+    t: f64,
+    p: DVec3,
+    max_dist: f64,
+) -> Option<(DVec3, DVec3)> {
     let (fp, g) = f.point_grad(at(p, t));
     let g = DVec3::from_array(g);
     if !fp.is_finite() || !g.is_finite() || g.length_squared() == 0.0 {
         return None;
     }
     if fp == 0.0 {
-        return Some(p);
+        return Some((p, g));
     }
     let dir = g.normalize();
     // Newton's guess of the signed distance along the gradient line.
     let guess = (-fp / g.length()).clamp(-max_dist, max_dist);
     let sign = |x: f64| x < 0.0;
-    // Grow a bracket around the guess until the sign changes.
+    // Newton's point itself: on the surface, or past it (the zero lies
+    // between `p` and it).
+    let newton = p + dir * guess;
+    let fn_ = f.point(at(newton, t));
+    if fn_ == 0.0 {
+        return Some((newton, g));
+    }
+    if fn_.is_finite() && sign(fn_) != sign(fp) {
+        return Some((bisect(f, t, p, newton, fp, fn_), g));
+    }
+    // Short of it: grow a bracket around the guess until the sign changes.
     let mut step = (guess.abs() * 0.25).max(max_dist * 1e-6);
     for _ in 0..40 {
         let lo = (guess - step).max(-max_dist);
@@ -365,7 +387,7 @@ pub fn project<E: Evaluator + ?Sized>(f: &E, t: f64, p: DVec3, max_dist: f64) ->
         let (a, b) = (p + dir * lo, p + dir * hi);
         let (fa, fb) = (f.point(at(a, t)), f.point(at(b, t)));
         if fa.is_finite() && fb.is_finite() && sign(fa) != sign(fb) {
-            return Some(bisect(f, t, a, b, fa, fb));
+            return Some((bisect(f, t, a, b, fa, fb), g));
         }
         if lo <= -max_dist && hi >= max_dist {
             return None;

@@ -35,8 +35,12 @@
 //! cannot together flip a triangle that each alone would not.
 //!
 //! Evaluation: the projections are sequential per vertex (each evaluation
-//! depends on the last; the vertices run in parallel); the normals after a
-//! pass are one batch of point gradients ([`super::sample::grads_at`]).
+//! depends on the last; the vertices run in parallel). A moved vertex's
+//! tangent plane in the next pass is the one at its relaxation target (the
+//! gradient the projection starts from); after the last pass the normals
+//! of every vertex that moved are one batch of point gradients at the
+//! final positions ([`super::sample::grads_at`]; the others keep theirs,
+//! already their positions' normals).
 //!
 //! # Limits
 //!
@@ -51,8 +55,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::flip::Flips;
-use super::quality::aspect;
-use super::roots::project;
+use super::quality::{aspect, aspect_ratio};
+use super::roots::project_along;
 use super::sample::grads_at;
 use super::{Mesh, Star};
 use crate::eval::Evaluator;
@@ -80,25 +84,37 @@ const SETTLED: f64 = 0.85;
 
 /// Where relaxation would take vertex `v` (before projection), and the
 /// largest distance from `v` to its star's corners (`None`: the vertex
-/// stays, its star being empty or already [`SETTLED`]): the better, by the
+/// stays, its star being empty or already [`SETTLED`] by the triangles'
+/// aspect ratios `aspects`): the better, by the
 /// star's worst aspect ratio, of the tangential components of the moves
 /// towards the neighbours' average (uniform Laplacian) and towards the
 /// area-weighted average of the star's triangle centroids.
-fn target(mesh: &Mesh, star: &Star, v: usize) -> Option<(DVec3, f64)> {
+fn target(mesh: &Mesh, star: &Star, aspects: &[f64], v: usize) -> Option<(DVec3, f64)> {
     let tris = star.of(v);
-    if tris.is_empty() {
+    if tris.is_empty() || tris.iter().all(|&ti| aspects[ti as usize] >= SETTLED) {
         return None;
     }
     let p = mesh.positions[v];
-    // The edge opposite `v` in each triangle of the star.
-    let mut opposite = Vec::with_capacity(tris.len());
-    let (mut bary, mut cent, mut weight, mut reach) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0f64);
-    for &ti in tris {
+    // The edge opposite `v` in triangle `ti` of the star.
+    let opposite = |ti: u32| {
         let tri = mesh.triangles[ti as usize];
         let s = tri.iter().position(|&w| w as usize == v)?;
-        let b = mesh.positions[tri[(s + 1) % 3] as usize];
-        let c = mesh.positions[tri[(s + 2) % 3] as usize];
-        opposite.push((b, c));
+        Some((
+            mesh.positions[tri[(s + 1) % 3] as usize],
+            mesh.positions[tri[(s + 2) % 3] as usize],
+        ))
+    };
+    // The star's least aspect ratio with `v` at `q` (`None`: `v` is not a
+    // corner of one of its triangles, a broken star).
+    let worst = |q: DVec3| {
+        tris.iter().try_fold(f64::INFINITY, |w, &ti| {
+            let (b, c) = opposite(ti)?;
+            Some(w.min(aspect(q, b, c)))
+        })
+    };
+    let (mut bary, mut cent, mut weight, mut reach) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0f64);
+    for &ti in tris {
+        let (b, c) = opposite(ti)?;
         bary += b + c;
         reach = reach.max((b - p).length()).max((c - p).length());
         let area = 0.5 * (b - p).cross(c - p).length();
@@ -116,17 +132,7 @@ fn target(mesh: &Mesh, star: &Star, v: usize) -> Option<(DVec3, f64)> {
     } else {
         bary
     };
-    // The star's least aspect ratio with `v` at `q`.
-    let worst = |q: DVec3| {
-        opposite
-            .iter()
-            .map(|&(b, c)| aspect(q, b, c))
-            .fold(f64::INFINITY, f64::min)
-    };
-    if worst(p) >= SETTLED {
-        return None;
-    }
-    let q = if worst(bary) >= worst(cent) {
+    let q = if worst(bary)? >= worst(cent)? {
         bary
     } else {
         cent
@@ -184,40 +190,48 @@ pub fn smooth<E: Evaluator + ?Sized>(mesh: &mut Mesh, f: &E, t: f64, passes: usi
     let mut accepted = 0;
     let mut flips = Flips::new(mesh);
     let pinned = flips.pinned(mesh);
+    let mut moved = vec![false; mesh.positions.len()];
     for _ in 0..passes {
         flips.run(mesh);
         let star = Star::new(mesh);
+        let mut aspects = flips.aspects().to_vec();
+        let mut moves = 0;
         for class in colour_classes(mesh, &star) {
-            let candidates: Vec<(u32, DVec3)> = class
+            let candidates: Vec<(u32, DVec3, DVec3)> = class
                 .par_iter()
                 .filter(|&&v| !pinned[v as usize])
                 .filter_map(|&v| {
-                    let (q, reach) = target(mesh, &star, v as usize)?;
-                    let p = project(f, t, q, 0.5 * reach)?;
-                    Some((v, p))
+                    let (q, reach) = target(mesh, &star, &aspects, v as usize)?;
+                    let (p, g) = project_along(f, t, q, 0.5 * reach)?;
+                    Some((v, p, g))
                 })
                 .collect();
-            for (v, p) in candidates {
+            for (v, p, g) in candidates {
                 if move_is_safe(mesh, &star, v as usize, p) {
                     mesh.positions[v as usize] = p;
-                    accepted += 1;
+                    // The tangent plane for the next pass: the normal at
+                    // the relaxation target, a point within rounding of
+                    // the projected one's normal line.
+                    mesh.normals[v as usize] = g.normalize();
+                    moved[v as usize] = true;
+                    moves += 1;
+                    for &ti in star.of(v as usize) {
+                        aspects[ti as usize] = aspect_ratio(mesh, mesh.triangles[ti as usize]);
+                    }
                 }
             }
         }
-        // Normals follow the surface at the new positions.
-        let normals: Vec<DVec3> = grads_at(f, t, &mesh.positions)
-            .into_par_iter()
-            .zip(mesh.normals.par_iter())
-            .map(|((_, g), &old)| {
-                if g.is_finite() && g.length_squared() > 0.0 {
-                    g.normalize()
-                } else {
-                    old
-                }
-            })
-            .collect();
-        mesh.normals = normals;
+        accepted += moves;
     }
     flips.run(mesh);
+    // The normals at the final positions of the vertices that moved (the
+    // others' are their positions' already).
+    let moved: Vec<usize> = (0..moved.len()).filter(|&v| moved[v]).collect();
+    let at: Vec<DVec3> = moved.iter().map(|&v| mesh.positions[v]).collect();
+    for (&v, (_, g)) in moved.iter().zip(grads_at(f, t, &at)) {
+        if g.is_finite() && g.length_squared() > 0.0 {
+            mesh.normals[v] = g.normalize();
+        }
+    }
     accepted
 }

@@ -58,25 +58,39 @@ impl UnionFind {
 /// Analyses `mesh`. See the module doc.
 pub fn analyze(mesh: &Mesh) -> Topology {
     let n = mesh.positions.len();
-    // Directed edge (a, b) → count; undirected key (min, max).
-    let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
     let mut used = vec![false; n];
     let mut uf = UnionFind((0..n as u32).collect());
+    // Every directed edge as `(min, max, backwards)` packed in order, so
+    // sorting groups the uses of each undirected edge.
+    let mut directed: Vec<u64> = Vec::with_capacity(3 * mesh.triangles.len());
     for t in &mesh.triangles {
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
             used[a as usize] = true;
-            let e = edges.entry((a.min(b), a.max(b))).or_insert((0, 0));
-            if a < b {
-                e.0 += 1;
-            } else {
-                e.1 += 1;
-            }
+            let (lo, hi) = (a.min(b) as u64, a.max(b) as u64);
+            directed.push((lo << 33) | (hi << 1) | (a > b) as u64);
             uf.union(a, b);
         }
     }
+    directed.sort_unstable();
+    // Undirected edge (lower end) → uses forwards and backwards.
+    let mut edges: Vec<(u32, (u32, u32))> = Vec::new();
+    let mut last = u64::MAX;
+    for &d in &directed {
+        if d >> 1 != last {
+            last = d >> 1;
+            edges.push(((d >> 33) as u32, (0, 0)));
+        }
+        let e = &mut edges.last_mut().expect("pushed above").1;
+        if d & 1 == 0 {
+            e.0 += 1;
+        } else {
+            e.1 += 1;
+        }
+    }
+    drop(directed);
     let (mut boundary, mut nonmanifold, mut misoriented) = (0, 0, 0);
-    for &(fwd, back) in edges.values() {
+    for &(_, (fwd, back)) in &edges {
         match fwd + back {
             1 => boundary += 1,
             2 if fwd != 1 => misoriented += 1,
@@ -94,7 +108,7 @@ pub fn analyze(mesh: &Mesh) -> Topology {
             comp.entry(r).or_insert((0, 0, 0, true)).0 += 1;
         }
     }
-    for (&(a, _), &(fwd, back)) in &edges {
+    for &(a, (fwd, back)) in &edges {
         let r = uf.find(a);
         let c = comp.get_mut(&r).expect("edge of a used vertex");
         c.1 += 1;
@@ -134,27 +148,27 @@ pub fn analyze(mesh: &Mesh) -> Topology {
 fn count_bowties(mesh: &Mesh, used: &[bool]) -> usize {
     let star = Star::new(mesh);
     let mut bad = 0;
+    let (mut fan, mut by_nb, mut uf) = (Vec::new(), Vec::new(), UnionFind(Vec::new()));
     for (v, _) in used.iter().enumerate().filter(|(_, u)| **u) {
         // The edge opposite `v` in each incident triangle.
-        let fan: Vec<(u32, u32)> = star
-            .of(v)
-            .iter()
-            .map(|&ti| {
-                let t = mesh.triangles[ti as usize];
-                let k = t.iter().position(|&w| w as usize == v).unwrap_or(0);
-                (t[(k + 1) % 3], t[(k + 2) % 3])
-            })
-            .collect();
-        // Union the triangles of the fan that share a neighbour vertex.
-        let mut uf = UnionFind((0..fan.len() as u32).collect());
-        let mut by_nb: HashMap<u32, u32> = HashMap::new();
+        fan.clear();
+        fan.extend(star.of(v).iter().map(|&ti| {
+            let t = mesh.triangles[ti as usize];
+            let k = t.iter().position(|&w| w as usize == v).unwrap_or(0);
+            (t[(k + 1) % 3], t[(k + 2) % 3])
+        }));
+        // Union the triangles of the fan that share a neighbour vertex:
+        // sorted (neighbour, triangle) pairs put them side by side.
+        uf.0.clear();
+        uf.0.extend(0..fan.len() as u32);
+        by_nb.clear();
         for (i, &(a, b)) in fan.iter().enumerate() {
-            for w in [a, b] {
-                if let Some(&j) = by_nb.get(&w) {
-                    uf.union(i as u32, j);
-                } else {
-                    by_nb.insert(w, i as u32);
-                }
+            by_nb.extend([(a, i as u32), (b, i as u32)]);
+        }
+        by_nb.sort_unstable();
+        for w in by_nb.windows(2) {
+            if w[0].0 == w[1].0 {
+                uf.union(w[0].1, w[1].1);
             }
         }
         let roots = (0..fan.len() as u32).filter(|&i| uf.find(i) == i).count();

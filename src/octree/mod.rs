@@ -442,32 +442,48 @@ impl Budget {
 /// Points per axis of the grid [`straddles`] samples.
 const STRADDLE_GRID: u32 = 2;
 
-/// Whether point values on a `STRADDLE_GRID³` grid over `[a, b]` (2: the
-/// corners; a finer grid found barely more on colonnade) show that the box holds
-/// surface: values of both strict signs, with `F` defined and continuous
-/// on the box (so it vanishes in between).
+/// Whether point values over `[a, b]` show that the box holds surface, so
+/// that no proof of emptiness can succeed: values of both strict signs,
+/// with `F` defined and continuous on the box (so it vanishes in between),
+/// or a value that is exactly 0 (a zero up to rounding, whatever the
+/// continuity). The points: a `STRADDLE_GRID³` grid (2: the corners; a
+/// finer grid found barely more on colonnade), then one Newton step from
+/// the centre along the gradient, which lands on a surface the box's
+/// corners do not see (a sheet that touches 0 without crossing, as
+/// `−|u|` does where two solids meet face to face).
 fn straddles<E: Evaluator + ?Sized>(f: &E, a: DVec3, b: DVec3, t: f64) -> bool {
-    let (mut neg, mut pos) = (false, false);
+    let (mut neg, mut pos, mut zero) = (false, false, false);
+    let mut sees = |v: f64| {
+        neg |= v < 0.0;
+        pos |= v > 0.0;
+        zero |= v == 0.0;
+        zero || (neg && pos)
+    };
     let n = STRADDLE_GRID - 1;
     let at = |k: u32, lo: f64, hi: f64| lo + (hi - lo) * (f64::from(k) / f64::from(n));
-    for i in 0..=n {
+    let mut seen = false;
+    'grid: for i in 0..=n {
         for j in 0..=n {
             for k in 0..=n {
-                let v = f.point([at(i, a.x, b.x), at(j, a.y, b.y), at(k, a.z, b.z), t]);
-                // A zero value is a zero (up to rounding) whatever the
-                // continuity: no proof could succeed.
-                if v == 0.0 {
-                    return true;
-                }
-                neg |= v < 0.0;
-                pos |= v > 0.0;
-                if neg && pos {
-                    return f.interval(cell_input(a, b, t)).defined;
+                if sees(f.point([at(i, a.x, b.x), at(j, a.y, b.y), at(k, a.z, b.z), t])) {
+                    seen = true;
+                    break 'grid;
                 }
             }
         }
     }
-    false
+    if !seen {
+        let c = (a + b) * 0.5;
+        let (v, g) = f.point_grad([c.x, c.y, c.z, t]);
+        let g = DVec3::from_array(g);
+        let q = c - g * (v / g.length_squared());
+        seen = sees(v)
+            || (q.is_finite()
+                && q.cmpge(a).all()
+                && q.cmple(b).all()
+                && sees(f.point([q.x, q.y, q.z, t])));
+    }
+    seen && (zero || f.interval(cell_input(a, b, t)).defined)
 }
 
 /// Whether interval arithmetic proves the cell free of surface: `F`

@@ -49,16 +49,68 @@ use crate::mesh::sample::{normals_at, values_at};
 use crate::octree::{Leaf, Octree};
 
 /// A mesh vertex before numbering: an edge between two leaves (smaller
-/// leaf first), or an interior vertex of one dual cell.
+/// leaf first), or an interior vertex of one dual cell, packed into one
+/// number whose order is (edges first) the order of the corner pairs, then
+/// the interior vertices by cell and position in the cell.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-enum Key {
-    Edge(Corner, Corner),
-    Interior(u32, u8),
+struct Key(u128);
+
+/// Bit marking an interior key.
+const INTERIOR: u128 = 1 << 127;
+
+impl Key {
+    fn corner_bits(c: Corner) -> u128 {
+        ((c.node as u128) << 8) | c.mirror as u128
+    }
+
+    fn corner(bits: u128) -> Corner {
+        Corner {
+            node: (bits >> 8) as u32,
+            mirror: bits as u8,
+        }
+    }
+
+    /// The edge between `a` and `b` (either order).
+    fn edge(a: Corner, b: Corner) -> Key {
+        let (a, b) = (a.min(b), a.max(b));
+        Key((Self::corner_bits(a) << 40) | Self::corner_bits(b))
+    }
+
+    /// Vertex `k` of dual cell `cell`.
+    fn interior(cell: u32, k: u8) -> Key {
+        Key(INTERIOR | ((cell as u128) << 8) | k as u128)
+    }
+
+    fn is_edge(self) -> bool {
+        self.0 & INTERIOR == 0
+    }
+
+    /// The two corners of an edge key, smaller first.
+    fn ends(self) -> (Corner, Corner) {
+        debug_assert!(self.is_edge());
+        let mask = (1u128 << 40) - 1;
+        (Self::corner(self.0 >> 40), Self::corner(self.0 & mask))
+    }
+
+    /// The dual cell of an interior key.
+    fn cell(self) -> u32 {
+        debug_assert!(!self.is_edge());
+        (self.0 >> 8) as u32
+    }
 }
 
-/// One cell's triangles over keys, its interior vertices with their
-/// positions, and how many degenerate triangles it dropped.
-type CellOutput = (Vec<[Key; 3]>, Vec<(Key, DVec3)>, usize);
+/// The triangles (over keys) of a run of cells, their interior vertices
+/// with positions (in key order), and how many degenerate triangles they
+/// dropped.
+#[derive(Default)]
+struct CellsOutput {
+    triangles: Vec<[Key; 3]>,
+    interiors: Vec<(Key, DVec3)>,
+    dropped: usize,
+}
+
+/// Active cells per polygonisation task.
+const CELLS_PER_TASK: usize = 1024;
 
 /// Counts of the extraction.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -170,75 +222,57 @@ pub fn extract<E: Evaluator + ?Sized>(
         ..ExtractStats::default()
     };
     // Polygonise every active cell into triangles over keys.
-    let per_cell: Vec<CellOutput> = active
-        .par_iter()
+    let outputs: Vec<CellsOutput> = active
+        .par_chunks(CELLS_PER_TASK)
         .enumerate()
-        .map(|(ci, cell)| {
-            let v: [f64; 8] = cell.map(|c| values.get(c));
-            let cm = mc33::polygonize(&v);
-            let keys: Vec<Key> = cm
-                .vertices()
-                .iter()
-                .enumerate()
-                .map(|(k, vert)| match *vert {
-                    Vertex::Edge { edge, .. } => {
-                        let [a, b] = EDGE_CORNERS[edge as usize];
-                        let (la, lb) = (cell[a as usize], cell[b as usize]);
-                        Key::Edge(la.min(lb), la.max(lb))
-                    }
-                    Vertex::Interior(_) => Key::Interior(ci as u32, k as u8),
-                })
-                .collect();
-            let interiors = cm
-                .vertices()
-                .iter()
-                .enumerate()
-                .filter_map(|(k, vert)| match *vert {
-                    Vertex::Interior(p) => Some((keys[k], trilinear_map(tree, cell, p))),
-                    Vertex::Edge { .. } => None,
-                })
-                .collect();
-            let mut tris = Vec::with_capacity(cm.triangles().len());
-            let mut dropped = 0;
-            for t in cm.triangles() {
-                let k = t.map(|i| keys[i as usize]);
-                if k[0] == k[1] || k[1] == k[2] || k[0] == k[2] {
-                    dropped += 1;
-                } else {
-                    tris.push(k);
-                }
+        .map(|(chunk, cells)| {
+            let mut out = CellsOutput::default();
+            for (i, cell) in cells.iter().enumerate() {
+                let ci = (chunk * CELLS_PER_TASK + i) as u32;
+                polygonize_cell(tree, ci, cell, values, &mut out);
             }
-            (tris, interiors, dropped)
+            out
         })
         .collect();
+    stats.dropped_degenerate = outputs.iter().map(|o| o.dropped).sum();
 
-    // Number the vertices: sorted unique keys.
-    let mut keys: Vec<Key> = per_cell
+    // Number the vertices in key order: every triangle corner with its
+    // slot, sorted by key; a new key is a new vertex.
+    let mut corners: Vec<(Key, u32)> =
+        Vec::with_capacity(3 * outputs.iter().map(|o| o.triangles.len()).sum::<usize>());
+    corners.extend(
+        outputs
+            .iter()
+            .flat_map(|o| o.triangles.iter().flatten())
+            .enumerate()
+            .map(|(slot, &k)| (k, slot as u32)),
+    );
+    corners.par_sort_unstable();
+    let mut keys: Vec<Key> = Vec::new();
+    let mut slots = vec![0u32; corners.len()];
+    for &(k, slot) in &corners {
+        if keys.last() != Some(&k) {
+            keys.push(k);
+        }
+        slots[slot as usize] = (keys.len() - 1) as u32;
+    }
+    drop(corners);
+    // Interior positions in key order (cells in order, each in order).
+    let interiors: Vec<(Key, DVec3)> = outputs
         .iter()
-        .flat_map(|(t, _, _)| t.iter().flatten().copied())
-        .collect();
-    keys.par_sort_unstable();
-    keys.dedup();
-    let index = |k: &Key| keys.binary_search(k).expect("every key was collected") as u32;
-    let interior_at: std::collections::HashMap<Key, DVec3> = per_cell
-        .iter()
-        .flat_map(|(_, i, _)| i.iter().copied())
+        .flat_map(|o| o.interiors.iter().copied())
         .collect();
 
     let ambiguous_leaf = |c: Corner| nodes[c.node as usize].leaf == Some(Leaf::Ambiguous);
     // Edge keys sort before interior keys.
-    let edges = keys.partition_point(|k| matches!(k, Key::Edge(..)));
+    let edges = keys.partition_point(|k| k.is_edge());
     let mut placed: Vec<(DVec3, bool)> = keys[..edges]
         .par_chunks(BATCH)
         .flat_map_iter(|chunk| {
-            let ends = |k: &Key| match *k {
-                Key::Edge(a, b) => (a, b),
-                Key::Interior(..) => unreachable!("edge keys only"),
-            };
             let segments: Vec<Segment> = chunk
                 .iter()
                 .map(|k| {
-                    let (a, b) = ends(k);
+                    let (a, b) = k.ends();
                     Segment {
                         a: a.position(tree),
                         b: b.position(tree),
@@ -249,17 +283,17 @@ pub fn extract<E: Evaluator + ?Sized>(
                 .collect();
             let ps = bisect_batch(f, t, &segments);
             chunk.iter().zip(ps).map(move |(k, p)| {
-                let (a, b) = ends(k);
+                let (a, b) = k.ends();
                 (p, ambiguous_leaf(a) || ambiguous_leaf(b))
             })
         })
         .collect();
     placed.par_extend(keys[edges..].par_iter().map(|k| {
-        let Key::Interior(ci, _) = *k else {
-            unreachable!("interior keys only")
-        };
-        let p0 = interior_at[k];
-        let cell = active[ci as usize];
+        let at = interiors
+            .binary_search_by_key(k, |&(key, _)| key)
+            .expect("every interior key was collected");
+        let p0 = interiors[at].1;
+        let cell = active[k.cell() as usize];
         let reach = cell_reach(tree, &cell);
         let p = project(f, t, p0, reach).unwrap_or(p0);
         (p, cell.iter().any(|&l| ambiguous_leaf(l)))
@@ -269,17 +303,45 @@ pub fn extract<E: Evaluator + ?Sized>(
         positions: placed.iter().map(|p| p.0).collect(),
         ambiguous: placed.iter().map(|p| p.1).collect(),
         normals: Vec::new(),
-        triangles: Vec::new(),
+        triangles: slots.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
     };
     mesh.normals = normals_at(f, t, &mesh.positions);
-    for (tris, _, dropped) in &per_cell {
-        stats.dropped_degenerate += dropped;
-        mesh.triangles
-            .extend(tris.iter().map(|t| t.map(|k| index(&k))));
-    }
     (mesh, stats)
 }
 
+/// Polygonises active dual cell number `ci` into `out`.
+fn polygonize_cell(
+    tree: &Octree,
+    ci: u32,
+    cell: &DualCell,
+    values: &CornerValues,
+    out: &mut CellsOutput,
+) {
+    let v: [f64; 8] = cell.map(|c| values.get(c));
+    let cm = mc33::polygonize(&v);
+    let mut keys = [Key(0); mc33::MAX_VERTS];
+    for (k, vert) in cm.vertices().iter().enumerate() {
+        keys[k] = match *vert {
+            Vertex::Edge { edge, .. } => {
+                let [a, b] = EDGE_CORNERS[edge as usize];
+                Key::edge(cell[a as usize], cell[b as usize])
+            }
+            Vertex::Interior(p) => {
+                let key = Key::interior(ci, k as u8);
+                out.interiors.push((key, trilinear_map(tree, cell, p)));
+                key
+            }
+        };
+    }
+    for t in cm.triangles() {
+        let k = t.map(|i| keys[i as usize]);
+        if k[0] == k[1] || k[1] == k[2] || k[0] == k[2] {
+            out.dropped += 1;
+        } else {
+            out.triangles.push(k);
+        }
+    }
+}
 /// The point with cell coordinates `p` in the dual cell's trilinear map of
 /// its corner leaves' centres.
 fn trilinear_map(tree: &Octree, cell: &DualCell, p: DVec3) -> DVec3 {

@@ -14,21 +14,35 @@ fn kernels(c: &mut Criterion) {
 
         let mut g = c.benchmark_group(format!("{name}/point"));
         g.throughput(Throughput::Elements(w.n_points() as u64));
-        g.bench_function(BenchmarkId::new("isoc", "point_batch"), |b| b.iter(|| r.isoc_point_batch()));
-        g.bench_function(BenchmarkId::new("fidget", "float_slice"), |b| b.iter(|| r.fidget_float_slice()));
+        g.bench_function(BenchmarkId::new("isoc", "point_batch"), |b| {
+            b.iter(|| r.isoc_point_batch())
+        });
+        g.bench_function(BenchmarkId::new("fidget", "float_slice"), |b| {
+            b.iter(|| r.fidget_float_slice())
+        });
         g.finish();
 
         let mut g = c.benchmark_group(format!("{name}/interval"));
         g.throughput(Throughput::Elements(w.n_boxes() as u64));
-        g.bench_function(BenchmarkId::new("isoc", "single"), |b| b.iter(|| r.isoc_interval_single()));
-        g.bench_function(BenchmarkId::new("isoc", "batch"), |b| b.iter(|| r.isoc_interval_batch()));
-        g.bench_function(BenchmarkId::new("fidget", "single"), |b| b.iter(|| r.fidget_interval()));
+        g.bench_function(BenchmarkId::new("isoc", "single"), |b| {
+            b.iter(|| r.isoc_interval_single())
+        });
+        g.bench_function(BenchmarkId::new("isoc", "batch"), |b| {
+            b.iter(|| r.isoc_interval_batch())
+        });
+        g.bench_function(BenchmarkId::new("fidget", "single"), |b| {
+            b.iter(|| r.fidget_interval())
+        });
         g.finish();
 
         let mut g = c.benchmark_group(format!("{name}/grad"));
         g.throughput(Throughput::Elements(w.n_boxes() as u64));
-        g.bench_function(BenchmarkId::new("isoc", "interval_grad_batch"), |b| b.iter(|| r.isoc_grad_batch()));
-        g.bench_function(BenchmarkId::new("fidget", "grad_slice"), |b| b.iter(|| r.fidget_grad_slice()));
+        g.bench_function(BenchmarkId::new("isoc", "interval_grad_batch"), |b| {
+            b.iter(|| r.isoc_grad_batch())
+        });
+        g.bench_function(BenchmarkId::new("fidget", "grad_slice"), |b| {
+            b.iter(|| r.fidget_grad_slice())
+        });
         g.finish();
     }
 }

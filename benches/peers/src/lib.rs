@@ -163,10 +163,12 @@ impl Case {
     pub fn load(name: &str) -> Result<Case, String> {
         let path = corpus_path(name);
         let src = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let surface = isoc::Surface::compile(&src, &path.display().to_string(), &Default::default())
-            .map_err(|e| format!("{name}: {e:?}"))?;
+        let surface =
+            isoc::Surface::compile(&src, &path.display().to_string(), &Default::default())
+                .map_err(|e| format!("{name}: {e:?}"))?;
         let t0 = std::time::Instant::now();
-        let kernels = isoc::jit::Kernels::compile(&surface.program).map_err(|e| format!("{name}: {e:?}"))?;
+        let kernels =
+            isoc::jit::Kernels::compile(&surface.program).map_err(|e| format!("{name}: {e:?}"))?;
         let isoc_compile_s = t0.elapsed().as_secs_f64();
         let (ctx, node) = to_fidget(&surface.program, 0.0)?;
         let t0 = std::time::Instant::now();
@@ -175,7 +177,8 @@ impl Case {
         let _ = f.float_slice_tape(Default::default());
         let _ = f.grad_slice_tape(Default::default());
         let fidget_compile_s = t0.elapsed().as_secs_f64();
-        let fidget = fidget::jit::JitShape::new(&ctx, node).map_err(|_| format!("{name}: fidget shape"))?;
+        let fidget =
+            fidget::jit::JitShape::new(&ctx, node).map_err(|_| format!("{name}: fidget shape"))?;
         let expect = src.lines().find_map(parse_expect);
         Ok(Case {
             name: name.to_string(),
@@ -222,7 +225,10 @@ impl Case {
 }
 
 fn parse_expect(line: &str) -> Option<Expect> {
-    let rest = line.trim_start_matches('#').trim().strip_prefix("expect:")?;
+    let rest = line
+        .trim_start_matches('#')
+        .trim()
+        .strip_prefix("expect:")?;
     let mut c = None;
     let mut g = None;
     for kv in rest.split_whitespace() {
@@ -327,12 +333,22 @@ impl Workload {
                     }
                     w.boxes.extend([0.0, 0.0]);
                     w.iboxes.push([
-                        Interval { lo: b[0].0, hi: b[0].1 },
-                        Interval { lo: b[1].0, hi: b[1].1 },
-                        Interval { lo: b[2].0, hi: b[2].1 },
+                        Interval {
+                            lo: b[0].0,
+                            hi: b[0].1,
+                        },
+                        Interval {
+                            lo: b[1].0,
+                            hi: b[1].1,
+                        },
+                        Interval {
+                            lo: b[2].0,
+                            hi: b[2].1,
+                        },
                         Interval { lo: 0.0, hi: 0.0 },
                     ]);
-                    w.fboxes.push(b.map(|(l, h)| FInterval::new(down(l), up(h))));
+                    w.fboxes
+                        .push(b.map(|(l, h)| FInterval::new(down(l), up(h))));
                     let c = b.map(|(l, h)| (0.5 * (l + h)) as f32);
                     w.gx.push(Grad::new(c[0], 1.0, 0.0, 0.0));
                     w.gy.push(Grad::new(c[1], 0.0, 1.0, 0.0));
@@ -607,8 +623,12 @@ pub fn topology(tris: &[[usize; 3]]) -> MeshTopology {
 }
 
 /// isoc's mesher at `level` (paper topology test, k_max = 1, min level 3,
-/// no smoothing) on the surface's own domain.
-pub fn isoc_mesh(case: &Case, level: u8) -> (isoc::mesh::Mesh, isoc::mesh::mesher::MeshReport) {
+/// `smooth` smoothing passes) on the surface's own domain.
+pub fn isoc_mesh(
+    case: &Case,
+    level: u8,
+    smooth: usize,
+) -> (isoc::mesh::Mesh, isoc::mesh::mesher::MeshReport) {
     let opts = isoc::mesh::mesher::MeshOptions {
         octree: isoc::octree::OctreeOptions {
             max_level: level,
@@ -618,7 +638,7 @@ pub fn isoc_mesh(case: &Case, level: u8) -> (isoc::mesh::Mesh, isoc::mesh::meshe
             t: 0.0,
             prune: true,
         },
-        smooth: 0,
+        smooth,
         domain: None,
     };
     isoc::mesh::mesher::mesh(&case.surface, &opts, &|_| {})
@@ -652,10 +672,7 @@ pub fn fidget_triangles(m: &fidget::mesh::Mesh) -> Vec<[usize; 3]> {
 }
 
 pub fn isoc_triangles(m: &isoc::mesh::Mesh) -> Vec<[usize; 3]> {
-    m.triangles
-        .iter()
-        .map(|t| t.map(|i| i as usize))
-        .collect()
+    m.triangles.iter().map(|t| t.map(|i| i as usize)).collect()
 }
 
 /// First-order distance of mesh vertices to the surface, |f(v)| / ‖∇f(v)‖,
@@ -674,7 +691,9 @@ pub fn vertex_distance(case: &Case, pts: &[[f64; 3]], depth: u8) -> (f64, f64) {
     }
     let mut out = vec![0.0; 8 * n];
     let mut defined = vec![false; n];
-    case.kernels.grad_batch(&input, &mut out, &mut defined).unwrap();
+    case.kernels
+        .grad_batch(&input, &mut out, &mut defined)
+        .unwrap();
     let d = case.surface.domain;
     let edge = (0..3).map(|k| d.hi[k] - d.lo[k]).fold(0.0, f64::max);
     let h = edge / (1u64 << depth) as f64;
@@ -693,7 +712,10 @@ pub fn vertex_distance(case: &Case, pts: &[[f64; 3]], depth: u8) -> (f64, f64) {
 }
 
 pub fn fidget_points(m: &fidget::mesh::Mesh) -> Vec<[f64; 3]> {
-    m.vertices.iter().map(|v| [v.x as f64, v.y as f64, v.z as f64]).collect()
+    m.vertices
+        .iter()
+        .map(|v| [v.x as f64, v.y as f64, v.z as f64])
+        .collect()
 }
 
 pub fn isoc_points(m: &isoc::mesh::Mesh) -> Vec<[f64; 3]> {

@@ -38,6 +38,8 @@ struct Args {
     quick: bool,
     mesh: bool,
     levels: Vec<u8>,
+    /// isoc's smoothing passes (0: none, as Fidget; 3: isoc's default).
+    smooth: usize,
     only: Vec<String>,
 }
 
@@ -46,6 +48,7 @@ fn args() -> Args {
         quick: false,
         mesh: true,
         levels: vec![6, 7],
+        smooth: 0,
         only: vec![],
     };
     let mut it = std::env::args().skip(1);
@@ -61,8 +64,11 @@ fn args() -> Args {
                     .map(|l| l.trim().parse().expect("a level"))
                     .collect()
             }
+            "--smooth" => a.smooth = it.next().and_then(|n| n.parse().ok()).expect("--smooth 3"),
             "-h" | "--help" => {
-                println!("usage: isoc-peers [--quick] [--no-mesh] [--levels 6,7] [formula…]");
+                println!(
+                    "usage: isoc-peers [--quick] [--no-mesh] [--levels 6,7] [--smooth N] [formula…]"
+                );
                 std::process::exit(0);
             }
             _ => a.only.push(s),
@@ -75,7 +81,12 @@ fn ns(s: f64, n: usize) -> String {
     format!("{:.1}", s * 1e9 / n as f64)
 }
 
-fn topo_cell(components: usize, genus: Option<i64>, watertight: bool, expect: Option<Expect>) -> String {
+fn topo_cell(
+    components: usize,
+    genus: Option<i64>,
+    watertight: bool,
+    expect: Option<Expect>,
+) -> String {
     let g = genus.map_or("?".to_string(), |g| g.to_string());
     let ok = match expect {
         Some(e) => {
@@ -170,8 +181,12 @@ fn main() {
             if a.quick { 1 } else { 3 },
             rayon_threads()
         );
+        let smoothing = match a.smooth {
+            0 => "no smoothing (Fidget has none)".to_string(),
+            n => format!("{n} smoothing passes (`isoc mesh`'s default is 3)"),
+        };
         println!(
-            "isoc: paper topology test, k_max = 1, min level 3, no smoothing. Fidget: Manifold Dual Contouring. \
+            "isoc: paper topology test, k_max = 1, min level 3, {smoothing}. Fidget: Manifold Dual Contouring. \
              Topology computed by this benchmark from each mesh's triangles (C = components, g = total genus, \
              closed = every edge in exactly two triangles); ✓ = closed with the corpus file's expected C and g. \
              Distances: |f(p)| / ‖∇f(p)‖ in f64 at each vertex and at each triangle centroid (a first-order distance to the surface), \
@@ -189,7 +204,7 @@ fn main() {
                 let mut isoc_res = None;
                 let ti = median(
                     || {
-                        let (m, rep) = isoc_mesh(c, level);
+                        let (m, rep) = isoc_mesh(c, level, a.smooth);
                         let n = m.triangles.len() as f64;
                         isoc_res = Some((m, rep));
                         n

@@ -62,12 +62,22 @@ unsafe fn avx_f64(xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
             let x = _mm256_loadu_pd(xs.as_ptr().add(i));
             let y = _mm256_loadu_pd(ys.as_ptr().add(i));
             let z = _mm256_loadu_pd(zs.as_ptr().add(i));
-            let (x2, y2, z2) = (_mm256_mul_pd(x, x), _mm256_mul_pd(y, y), _mm256_mul_pd(z, z));
-            let a = _mm256_sub_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(two, x2), y2), z2), one);
+            let (x2, y2, z2) = (
+                _mm256_mul_pd(x, x),
+                _mm256_mul_pd(y, y),
+                _mm256_mul_pd(z, z),
+            );
+            let a = _mm256_sub_pd(
+                _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(two, x2), y2), z2),
+                one,
+            );
             let a3 = _mm256_mul_pd(_mm256_mul_pd(a, a), a);
             let b = _mm256_add_pd(_mm256_mul_pd(tenth, x2), y2);
             let z3 = _mm256_mul_pd(z2, z);
-            _mm256_storeu_pd(out.as_mut_ptr().add(i), _mm256_sub_pd(a3, _mm256_mul_pd(b, z3)));
+            _mm256_storeu_pd(
+                out.as_mut_ptr().add(i),
+                _mm256_sub_pd(a3, _mm256_mul_pd(b, z3)),
+            );
             i += 4;
         }
     }
@@ -86,12 +96,22 @@ unsafe fn avx_f32(xs: &[f32], ys: &[f32], zs: &[f32], out: &mut [f32]) {
             let x = _mm256_loadu_ps(xs.as_ptr().add(i));
             let y = _mm256_loadu_ps(ys.as_ptr().add(i));
             let z = _mm256_loadu_ps(zs.as_ptr().add(i));
-            let (x2, y2, z2) = (_mm256_mul_ps(x, x), _mm256_mul_ps(y, y), _mm256_mul_ps(z, z));
-            let a = _mm256_sub_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(two, x2), y2), z2), one);
+            let (x2, y2, z2) = (
+                _mm256_mul_ps(x, x),
+                _mm256_mul_ps(y, y),
+                _mm256_mul_ps(z, z),
+            );
+            let a = _mm256_sub_ps(
+                _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(two, x2), y2), z2),
+                one,
+            );
             let a3 = _mm256_mul_ps(_mm256_mul_ps(a, a), a);
             let b = _mm256_add_ps(_mm256_mul_ps(tenth, x2), y2);
             let z3 = _mm256_mul_ps(z2, z);
-            _mm256_storeu_ps(out.as_mut_ptr().add(i), _mm256_sub_ps(a3, _mm256_mul_ps(b, z3)));
+            _mm256_storeu_ps(
+                out.as_mut_ptr().add(i),
+                _mm256_sub_ps(a3, _mm256_mul_ps(b, z3)),
+            );
             i += 8;
         }
     }
@@ -154,7 +174,10 @@ fn main() {
         .zip(&out)
         .map(|(a, b)| (a - b).abs())
         .fold(0.0, f64::max);
-    assert!(max_err < 1e-9, "hand-written kernel disagrees with the JIT: {max_err}");
+    assert!(
+        max_err < 1e-9,
+        "hand-written kernel disagrees with the JIT: {max_err}"
+    );
     println!("| kernel (heart, 65,536 points, one thread) | ns / point |");
     println!("|---|---|");
     println!("| isoc JIT batch point (F64X2) | {jit:.3} |");
