@@ -426,3 +426,76 @@ fn pruning_changes_nothing() {
         assert!(!m.triangles.is_empty());
     }
 }
+
+/// `topology::analyze` on small meshes whose answer is known by hand: the
+/// edge census (sorted directed edges) and the fan test (bow-ties).
+mod analysis {
+    use glam::DVec3;
+    use isoc::mesh::Mesh;
+    use isoc::mesh::topology::analyze;
+
+    fn mesh(n: usize, triangles: &[[u32; 3]]) -> Mesh {
+        Mesh {
+            positions: (0..n).map(|i| DVec3::splat(i as f64)).collect(),
+            normals: vec![DVec3::Z; n],
+            ambiguous: vec![false; n],
+            triangles: triangles.to_vec(),
+        }
+    }
+
+    /// A tetrahedron on vertices `o..o+4`, outward-oriented.
+    fn tetrahedron(o: u32) -> Vec<[u32; 3]> {
+        [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]
+            .iter()
+            .map(|t| t.map(|i| i + o))
+            .collect()
+    }
+
+    #[test]
+    fn a_tetrahedron_is_a_closed_sphere() {
+        let t = analyze(&mesh(4, &tetrahedron(0)));
+        assert_eq!((t.vertices, t.edges, t.faces, t.euler), (4, 6, 4, 2));
+        assert_eq!((t.components, t.genus.clone()), (1, vec![Some(0)]));
+        assert!(t.watertight, "{t:?}");
+    }
+
+    #[test]
+    fn a_flipped_face_misorients_its_three_edges() {
+        let mut tris = tetrahedron(0);
+        tris[2] = [1, 3, 2];
+        let t = analyze(&mesh(4, &tris));
+        assert_eq!((t.misoriented_edges, t.boundary_edges), (3, 0));
+        assert!(!t.watertight);
+        assert_eq!(t.genus, vec![None]);
+    }
+
+    #[test]
+    fn an_open_face_and_a_doubled_edge() {
+        let t = analyze(&mesh(3, &[[0, 1, 2]]));
+        assert_eq!(
+            (t.boundary_edges, t.edges, t.genus.clone()),
+            (3, 3, vec![None])
+        );
+        // Three triangles on the edge 0–1.
+        let t = analyze(&mesh(5, &[[0, 1, 2], [1, 0, 3], [0, 1, 4]]));
+        assert_eq!(t.nonmanifold_edges, 1, "{t:?}");
+        assert!(!t.watertight);
+    }
+
+    #[test]
+    fn two_tetrahedra_sharing_a_vertex_make_a_bow_tie() {
+        // Vertex 3 of the first is vertex 0 of the second.
+        let mut tris = tetrahedron(0);
+        tris.extend(tetrahedron(3));
+        let t = analyze(&mesh(7, &tris));
+        assert_eq!((t.nonmanifold_vertices, t.components), (1, 1), "{t:?}");
+        assert_eq!((t.boundary_edges, t.misoriented_edges), (0, 0));
+        assert!(!t.watertight);
+        // Apart, they are two closed spheres.
+        let mut tris = tetrahedron(0);
+        tris.extend(tetrahedron(4));
+        let t = analyze(&mesh(8, &tris));
+        assert_eq!((t.components, t.genus.clone()), (2, vec![Some(0), Some(0)]));
+        assert!(t.watertight);
+    }
+}

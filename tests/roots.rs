@@ -11,7 +11,7 @@ use std::sync::Mutex;
 use glam::DVec3;
 use isoc::eval::{Evaluator, GradEval, Reference};
 use isoc::interval::{DecInterval, Interval};
-use isoc::mesh::roots::{Segment, bisect, bisect_batch};
+use isoc::mesh::roots::{Segment, bisect, bisect_batch, project, project_along};
 use isoc::{CompileOptions, Surface};
 
 const FUNCTIONS: [&str; 4] = [
@@ -230,5 +230,41 @@ fn bisection_converges_fast_and_onto_the_zero() {
         }
         let avg = total as f64 / segs.len() as f64;
         assert!(avg <= mean, "{src}: {avg} steps on average");
+    }
+}
+
+/// Projection onto the unit sphere from random points near it: the result
+/// is on the surface (to rounding), on the gradient line of the start (the
+/// radius through it), within the allowed distance, with the start's
+/// gradient returned; and no zero within reach gives `None`.
+#[test]
+fn projection_lands_on_the_gradient_line_within_reach() {
+    let s =
+        Surface::compile(FUNCTIONS[0], "sphere.iso", &CompileOptions::default()).expect("compiles");
+    let mut rng = Rng(7);
+    for _ in 0..500 {
+        let d = DVec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5);
+        if d.length() < 1e-3 {
+            continue;
+        }
+        let dir = d.normalize();
+        let r = 0.6 + 0.8 * rng.unit();
+        let p = dir * r;
+        let (q, g) = project_along(&s, 0.0, p, 0.5).expect("the sphere is within reach");
+        assert!((q.length() - 1.0).abs() < 1e-14, "{p} → {q}");
+        assert!(
+            q.normalize().dot(dir) > 1.0 - 1e-12,
+            "off the radius: {p} → {q}"
+        );
+        assert!((q - p).length() <= 0.5 + 1e-12);
+        assert!(
+            (g - 2.0 * p).length() < 1e-12 * (1.0 + g.length()),
+            "{g} at {p}"
+        );
+        assert_eq!(project(&s, 0.0, p, 0.5), Some(q));
+        // The sphere is farther than the reach allows.
+        if (r - 1.0).abs() > 0.2 {
+            assert_eq!(project(&s, 0.0, p, 0.1), None, "{p}");
+        }
     }
 }
