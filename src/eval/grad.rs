@@ -69,6 +69,21 @@ pub trait Num: Copy {
     fn int(n: i64) -> Self;
     fn un(op: UnOp, a: Self) -> Self;
     fn bin(op: BinOp, a: Self, b: Self) -> Self;
+    /// `bin(Add, a, b)`, `bin(Sub, a, b)`, `bin(Mul, a, b)`, `un(Neg, a)`:
+    /// the derivative rules' arithmetic, which an implementation may
+    /// provide without the dispatch on the op (same results).
+    fn add(a: Self, b: Self) -> Self {
+        Self::bin(BinOp::Add, a, b)
+    }
+    fn sub(a: Self, b: Self) -> Self {
+        Self::bin(BinOp::Sub, a, b)
+    }
+    fn mul(a: Self, b: Self) -> Self {
+        Self::bin(BinOp::Mul, a, b)
+    }
+    fn neg(a: Self) -> Self {
+        Self::un(UnOp::Neg, a)
+    }
     fn powi(a: Self, n: i64) -> Self;
     /// A value with no meaning (`NaN`, or entire and undefined).
     fn unknown() -> Self;
@@ -185,6 +200,31 @@ impl Num for DecInterval {
     fn bin(op: BinOp, a: Self, b: Self) -> Self {
         dec(interval::binary(op, a.iv, b.iv), a.defined && b.defined)
     }
+    #[inline]
+    fn add(a: Self, b: Self) -> Self {
+        dec(
+            interval::binary_with(a.iv, b.iv, interval::arith::add),
+            a.defined && b.defined,
+        )
+    }
+    #[inline]
+    fn sub(a: Self, b: Self) -> Self {
+        dec(
+            interval::binary_with(a.iv, b.iv, interval::arith::sub),
+            a.defined && b.defined,
+        )
+    }
+    #[inline]
+    fn mul(a: Self, b: Self) -> Self {
+        dec(
+            interval::binary_with(a.iv, b.iv, interval::arith::mul),
+            a.defined && b.defined,
+        )
+    }
+    #[inline]
+    fn neg(a: Self) -> Self {
+        dec(interval::unary_with(a.iv, interval::arith::neg), a.defined)
+    }
     fn powi(a: Self, n: i64) -> Self {
         dec(interval::powi(a.iv, n), a.defined)
     }
@@ -256,19 +296,19 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
     use BinOp as B;
     use UnOp as U;
     let zero = N::cst(0.0);
-    let mul = |a, b| N::bin(B::Mul, a, b);
+    let mul = N::mul;
     let div = |a, b| N::bin(B::Div, a, b);
-    let add = |a, b| N::bin(B::Add, a, b);
-    let sub = |a, b| N::bin(B::Sub, a, b);
-    let neg = |a| N::un(U::Neg, a);
+    let add = N::add;
+    let sub = N::sub;
+    let neg = N::neg;
     let sq = |a| N::un(U::Square, a);
     // A malformed operand (not an earlier value) reads as unknown.
-    let get = |v: crate::ir::Value| {
-        vals.get(v.index()).copied().unwrap_or(Dual {
-            v: N::unknown(),
-            d: [N::unknown(); 3],
-        })
+    let unknown = Dual {
+        v: N::unknown(),
+        d: [N::unknown(); 3],
     };
+    // Operands are read in place (a value and its partials are 4 `N`s).
+    let get = |v: crate::ir::Value| vals.get(v.index()).unwrap_or(&unknown);
     match *op {
         Op::Var(v) => {
             let i = v.index();
@@ -283,6 +323,7 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
         },
         Op::Unary(u, a) => {
             let Dual { v: a, d: da } = get(a);
+            let a = *a;
             let v = N::un(u, a);
             let d = match u {
                 U::Neg => map3(|k| neg(da[k])),
@@ -332,6 +373,7 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
         Op::Binary(bop, x, y) => {
             let Dual { v: a, d: da } = get(x);
             let Dual { v: b, d: db } = get(y);
+            let (a, b) = (*a, *b);
             let v = N::bin(bop, a, b);
             let d = match bop {
                 B::Add => map3(|k| add(da[k], db[k])),
@@ -364,6 +406,7 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
         }
         Op::Powi(a, n) => {
             let Dual { v: a, d: da } = get(a);
+            let a = *a;
             let v = N::powi(a, n);
             let d = if n == 0 {
                 [zero; 3]

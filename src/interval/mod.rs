@@ -276,6 +276,27 @@ pub fn binary(op: BinOp, a: Interval, b: Interval) -> (Interval, bool) {
     (r, def && oka && okb && !a.is_empty() && !b.is_empty())
 }
 
+/// [`binary`] for an op whose rule `rule` is total (defined and continuous
+/// everywhere: `Add`, `Sub`, `Mul`, `Min`, `Max`), called directly: the
+/// same result, without the dispatch on the op.
+#[inline]
+pub fn binary_with(
+    a: Interval,
+    b: Interval,
+    rule: impl Fn(Interval, Interval) -> Interval,
+) -> (Interval, bool) {
+    let (a, oka) = a.normalize();
+    let (b, okb) = b.normalize();
+    (rule(a, b), oka && okb && !a.is_empty() && !b.is_empty())
+}
+
+/// [`unary`] for a total op (`Neg`, `Abs`, `Square`), called directly.
+#[inline]
+pub fn unary_with(a: Interval, rule: impl Fn(Interval) -> Interval) -> (Interval, bool) {
+    let (a, ok) = a.normalize();
+    (rule(a), ok && !a.is_empty())
+}
+
 /// Enclosure of `a^n` (exact monotone rules, outward rounded).
 pub fn powi(a: Interval, n: i64) -> (Interval, bool) {
     let (a, ok) = a.normalize();
