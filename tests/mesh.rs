@@ -499,3 +499,77 @@ mod analysis {
         assert!(t.watertight);
     }
 }
+
+/// `--tolerance` refines per cell: a big sphere and a small one (radii 1
+/// and 0.2) at one tolerance each get cells as fine as their own chord
+/// error needs, no finer. By the exact distance at the centroids, each
+/// sphere's worst triangle is within the tolerance but more than a third
+/// of it (one level finer would cut the chord error about four times): a
+/// refinement driven by one number for the whole domain, sized for the
+/// small sphere, over-refines the big one or the reverse.
+#[test]
+fn tolerance_refines_each_region_as_far_as_it_needs() {
+    let s = surface(
+        "domain [-1.2, 2.0], [-1.2, 1.2], [-1.2, 1.2];
+         surface min(sqrt(x^2 + y^2 + z^2) - 1, sqrt((x - 1.6)^2 + y^2 + z^2) - 0.2);",
+    );
+    let mut opts = MeshOptions::default();
+    opts.octree.max_level = 9;
+    let tol = 2e-4;
+    let (mesh, report, t) = mesher::mesh_to_tolerance(&s, s.domain, &opts, tol, &|_| {});
+    assert!(t.met, "{t:?}");
+    assert!(report.topology.watertight);
+    assert_eq!(report.topology.components, 2);
+    let (mut big, mut small) = (0.0f64, 0.0f64);
+    for tri in &mesh.triangles {
+        let p = tri.map(|i| mesh.positions[i as usize]);
+        let c = (p[0] + p[1] + p[2]) / 3.0;
+        if p[0].x > 1.25 {
+            small = small.max(((c - glam::DVec3::new(1.6, 0.0, 0.0)).length() - 0.2).abs());
+        } else {
+            big = big.max((c.length() - 1.0).abs());
+        }
+    }
+    for (name, dev) in [("big", big), ("small", small)] {
+        assert!(
+            dev <= tol && dev > tol / 3.0,
+            "{name} sphere: worst centroid {dev:.2e} for tolerance {tol:.0e}"
+        );
+    }
+}
+
+/// `Octree::build_refining` splits exactly the marked cells (surface or
+/// empty) and leaves every other leaf as `Octree::build` made it.
+#[test]
+fn refining_splits_exactly_the_marked_cells() {
+    use isoc::octree::{Octree, OctreeOptions, Refine};
+    let s = surface("domain [-1.3, 1.3]^3; surface x^2 + y^2 + z^2 - 1;");
+    let opts = OctreeOptions {
+        max_level: 6,
+        ..OctreeOptions::default()
+    };
+    let tree = Octree::build(&s, s.domain, &opts, &|_, _| {});
+    let key = |n: &isoc::octree::Node| (n.level, n.ijk);
+    // Every seventh leaf below the maximal level, whatever its verdict.
+    let marked: Refine = tree
+        .nodes
+        .iter()
+        .filter(|n| n.is_leaf() && n.level < opts.max_level)
+        .step_by(7)
+        .map(key)
+        .collect();
+    assert!(marked.len() > 10);
+    let refined = Octree::build_refining(&s, s.domain, &opts, &marked, &|_, _| {});
+    let nodes: std::collections::HashMap<_, _> =
+        refined.nodes.iter().map(|n| (key(n), n)).collect();
+    for n in tree.nodes.iter().filter(|n| n.is_leaf()) {
+        let m = nodes
+            .get(&key(n))
+            .expect("every cell of the tree is still a node");
+        if marked.contains(&key(n)) {
+            assert!(!m.is_leaf(), "marked {:?} was not split", key(n));
+        } else {
+            assert!(m.is_leaf() && m.leaf == n.leaf, "{:?} changed", key(n));
+        }
+    }
+}

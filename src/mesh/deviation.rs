@@ -28,26 +28,37 @@ use crate::eval::Evaluator;
 /// farther than `reach`; `+∞` if some sample cannot be projected. 0 for a
 /// mesh without triangles.
 pub fn max_deviation<E: Evaluator + ?Sized>(mesh: &Mesh, f: &E, t: f64, reach: f64) -> f64 {
+    triangle_deviations(mesh, f, t, reach)
+        .into_iter()
+        .fold(0.0, f64::max)
+}
+
+/// Per triangle of `mesh`, the largest distance from its samples to the
+/// surface, as [`max_deviation`] measures it.
+pub fn triangle_deviations<E: Evaluator + ?Sized>(
+    mesh: &Mesh,
+    f: &E,
+    t: f64,
+    reach: f64,
+) -> Vec<f64> {
     let p = &mesh.positions;
     mesh.triangles
-        .par_chunks(256)
-        .map(|tris| {
-            let mut worst = 0.0f64;
-            for tri in tris {
-                let [a, b, c] = tri.map(|i| p[i as usize]);
-                let samples = [
-                    (a + b + c) / 3.0,
-                    (a + b) * 0.5,
-                    (b + c) * 0.5,
-                    (c + a) * 0.5,
-                ];
-                for s in samples {
-                    worst = worst.max(distance(f, t, s, reach));
-                }
-            }
-            worst
+        .par_iter()
+        .with_min_len(256)
+        .map(|tri| {
+            let [a, b, c] = tri.map(|i| p[i as usize]);
+            let samples = [
+                (a + b + c) / 3.0,
+                (a + b) * 0.5,
+                (b + c) * 0.5,
+                (c + a) * 0.5,
+            ];
+            samples
+                .into_iter()
+                .map(|s| distance(f, t, s, reach))
+                .fold(0.0, f64::max)
         })
-        .reduce(|| 0.0, f64::max)
+        .collect()
 }
 
 /// Distance from `s` to its projection on the surface (`+∞` if none within

@@ -10,10 +10,12 @@
 
 use std::time::Instant;
 
+use glam::DVec3;
+
 use super::Mesh;
 use super::{quality, smooth, topology};
 use crate::eval::Evaluator;
-use crate::octree::{Octree, OctreeOptions, OctreeStats};
+use crate::octree::{Octree, OctreeOptions, OctreeStats, Refine};
 use crate::polygonize::extract;
 use crate::surface::{Bounds, Surface};
 
@@ -101,11 +103,24 @@ pub fn mesh_with<E: Evaluator + ?Sized>(
     opts: &MeshOptions,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> (Mesh, MeshReport) {
+    let (mesh, report, _) = mesh_refining(f, domain, opts, &Refine::default(), progress);
+    (mesh, report)
+}
+
+/// [`mesh_with`] on an octree that also subdivides the cells of `refine`
+/// ([`Octree::build_refining`]); returns the octree too.
+fn mesh_refining<E: Evaluator + ?Sized>(
+    f: &E,
+    domain: Bounds,
+    opts: &MeshOptions,
+    refine: &Refine,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> (Mesh, MeshReport, Octree) {
     let start = Instant::now();
     let domain = opts.domain.unwrap_or(domain);
     let t = opts.octree.t;
     let t0 = Instant::now();
-    let tree = Octree::build(f, domain, &opts.octree, &|level, cells| {
+    let tree = Octree::build_refining(f, domain, &opts.octree, refine, &|level, cells| {
         progress(Stage::Octree { level, cells })
     });
     let octree_ms = ms(t0);
@@ -148,7 +163,7 @@ pub fn mesh_with<E: Evaluator + ?Sized>(
             total: ms(start),
         },
     };
-    (mesh, report)
+    (mesh, report, tree)
 }
 
 /// What [`mesh_to_tolerance`] achieved.
@@ -170,31 +185,38 @@ pub struct ToleranceReport {
     pub total_ms: f64,
 }
 
-/// Smallest `k_max` [`mesh_to_tolerance`] tries.
-const KMAX_FLOOR: f64 = 1e-3;
 /// Most meshes [`mesh_to_tolerance`] builds.
-const MAX_PASSES: usize = 10;
+const MAX_PASSES: usize = 12;
 
-/// Meshes like [`mesh_with`], then measures the mesh's deviation from the
-/// surface and, while it exceeds `tolerance`, meshes again with a smaller
-/// geometry criterion `k_max` (starting from `opts.octree.kmax`), up to
-/// `opts.octree.max_level`.
+/// Meshes like [`mesh_with`], then measures every triangle's deviation
+/// from the surface and, while some exceed `tolerance`, meshes again on an
+/// octree that also subdivides the leaves holding those triangles' corners
+/// and centroids ([`Octree::build_refining`]; the set only grows, so a
+/// refined region stays refined), up to `opts.octree.max_level`.
 ///
-/// The octree's geometry criterion subdivides a cell while the spread of
-/// its normals exceeds `k_max`; a triangle's chord error grows like the
-/// square of its size times the curvature, so lowering `k_max` refines
-/// only where the surface bends — flat regions keep large cells. Each pass
-/// scales `k_max` by `√(tolerance / deviation)` (clamped to `[0.1, 0.7]`).
-/// It stops when the tolerance is met, when `k_max` reaches 10⁻³, after 10
-/// passes, or when the maximal level is reached and the deviation no longer
-/// shrinks (the cap is too coarse: `met` is then false).
+/// Refinement is per cell: only where a measured triangle is too far from
+/// the surface do cells get smaller, so flat regions keep the large
+/// triangles the geometry criterion `k_max` allows and curved ones get
+/// the small triangles their chord error needs. When no offending leaf
+/// can be split any more, or two passes did not lower the deviation by
+/// 5 % (all such leaves at the maximal level, or a deviation the leaves do
+/// not explain, as near a singular point), the geometry criterion `k_max`
+/// is lowered everywhere instead (by `√(tolerance / deviation)`, clamped
+/// to `[0.1, 0.7]`, down to 10⁻³), at most twice. It stops when the
+/// tolerance is met, after 12 passes, or when it stalls with no lowering
+/// left (the cap is too coarse, or the surface too singular for the
+/// measurement: `met` is then false). The octree's criteria and guarantees are those of
+/// [`mesh_with`]: a forced subdivision never discards a cell that may hold
+/// surface.
 ///
 /// # Limits
 ///
-/// `k_max` is one number for the whole domain: where the surface is flat
-/// but the deviation is set by a distant high-curvature region, cells are
-/// finer than the tolerance alone would need. The deviation is measured at
-/// centroids and edge midpoints only (see [`super::deviation`]).
+/// Each pass rebuilds the mesh from the root (the octree of the last pass
+/// is not reused), so the time is the sum of the passes'. The deviation
+/// is measured at centroids and edge midpoints only (see
+/// [`super::deviation`]); an offending triangle refines the leaves at its
+/// corners and centroid, not every corner of its dual cell, so a few
+/// passes may be needed where large leaves meet.
 pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
     f: &E,
     domain: Bounds,
@@ -204,21 +226,63 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
 ) -> (Mesh, MeshReport, ToleranceReport) {
     let start = Instant::now();
     let t = opts.octree.t;
+    let mut refine = Refine::default();
     let mut o = *opts;
     let mut passes = 0;
-    let mut previous = f64::INFINITY;
+    let (mut best, mut stuck, mut lowerings) = (f64::INFINITY, 0, 0);
     loop {
         passes += 1;
-        let (mesh, report) = mesh_with(f, domain, &o, progress);
+        let (mesh, report, tree) = mesh_refining(f, domain, &o, &refine, progress);
         // A triangle's corners lie on the surface, so the surface is within
         // one edge length of every sample; the projection may search twice
         // that.
         let reach = 2.0 * longest_edge(&mesh) + f64::MIN_POSITIVE;
-        let dev = super::deviation::max_deviation(&mesh, f, t, reach);
+        let devs = super::deviation::triangle_deviations(&mesh, f, t, reach);
+        let dev = devs.iter().copied().fold(0.0, f64::max);
         let met = dev <= tolerance;
-        let at_cap = report.octree.max_level_reached >= o.octree.max_level;
-        let stalled = at_cap && dev >= 0.95 * previous;
-        if met || stalled || o.octree.kmax <= KMAX_FLOOR || passes >= MAX_PASSES {
+        // The leaves under the offending triangles, where they can still
+        // be split.
+        let before = refine.len();
+        if !met {
+            for (tri, _) in mesh
+                .triangles
+                .iter()
+                .zip(&devs)
+                .filter(|(_, d)| d.is_nan() || **d > tolerance)
+            {
+                let [a, b, c] = tri.map(|i| mesh.positions[i as usize]);
+                // Its corners, centroid and points along its edges: the
+                // leaves of its dual cell that make it large.
+                let along = |p: DVec3, q: DVec3| [0.25, 0.5, 0.75].map(|s| p.lerp(q, s));
+                let points = [a, b, c, (a + b + c) / 3.0]
+                    .into_iter()
+                    .chain(along(a, b))
+                    .chain(along(b, c))
+                    .chain(along(c, a));
+                for p in points {
+                    if let Some(leaf) = tree.leaf_containing(p) {
+                        let n = &tree.nodes[leaf];
+                        if n.level < o.octree.max_level {
+                            refine.insert((n.level, n.ijk));
+                        }
+                    }
+                }
+            }
+        }
+        // Nothing left to split where the triangles are bad, or two passes
+        // without lowering the deviation by 5 % (every such leaf at the
+        // cap, or a measurement the leaves do not explain, e.g. near a
+        // singular point): tighten the geometry criterion everywhere
+        // instead, at most `MAX_LOWERINGS` times.
+        if dev < 0.95 * best {
+            best = dev;
+            stuck = 0;
+        } else {
+            stuck += 1;
+        }
+        let stalled = !met && (refine.len() == before || stuck >= 2);
+        let give_up = stalled && (lowerings >= MAX_LOWERINGS || o.octree.kmax <= KMAX_FLOOR);
+        if met || passes >= MAX_PASSES || give_up {
             let r = ToleranceReport {
                 tolerance,
                 max_deviation: dev,
@@ -229,15 +293,24 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
             };
             return (mesh, report, r);
         }
-        previous = dev;
-        let scale = if dev.is_finite() && dev > 0.0 {
-            (tolerance / dev).sqrt().clamp(0.1, 0.7)
-        } else {
-            0.1
-        };
-        o.octree.kmax = (o.octree.kmax * scale).max(KMAX_FLOOR);
+        if stalled {
+            let scale = if dev.is_finite() && dev > 0.0 {
+                (tolerance / dev).sqrt().clamp(0.1, 0.7)
+            } else {
+                0.1
+            };
+            o.octree.kmax = (o.octree.kmax * scale).max(KMAX_FLOOR);
+            lowerings += 1;
+            stuck = 0;
+        }
     }
 }
+
+/// Most times [`mesh_to_tolerance`] lowers `k_max`.
+const MAX_LOWERINGS: usize = 2;
+
+/// Smallest `k_max` [`mesh_to_tolerance`] tries.
+const KMAX_FLOOR: f64 = 1e-3;
 
 fn longest_edge(mesh: &Mesh) -> f64 {
     let p = &mesh.positions;

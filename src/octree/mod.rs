@@ -87,6 +87,10 @@ use crate::surface::Bounds;
 pub use criteria::TopologyTest;
 pub use field::Field;
 
+/// Cells to subdivide whatever the criteria say
+/// ([`Octree::build_refining`]), by level and integer position.
+pub type Refine = std::collections::HashSet<(u8, [u32; 3])>;
+
 /// How a leaf ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Leaf {
@@ -562,6 +566,23 @@ fn proves_empty<E: Evaluator + ?Sized>(
 }
 
 impl Octree {
+    /// The leaf whose closed box holds `p` (descent by the splitting
+    /// planes of [`Octree::cell_box`]), if `p` is in the domain.
+    pub fn leaf_containing(&self, p: DVec3) -> Option<usize> {
+        let (a, b) = self.cell_box(self.nodes.first()?);
+        if !(p.cmpge(a).all() && p.cmple(b).all()) {
+            return None;
+        }
+        let mut i = 0usize;
+        while !self.nodes[i].is_leaf() {
+            let first = self.nodes[i].first_child as usize;
+            let (_, split) = self.cell_box(&self.nodes[first]);
+            let c = (0..3).fold(0, |c, k| c | (usize::from(p[k] >= split[k]) << k));
+            i = first + c;
+        }
+        Some(i)
+    }
+
     /// The box of a node, by the one formula shared by all nodes.
     pub fn cell_box(&self, n: &Node) -> (DVec3, DVec3) {
         let scale = (1u64 << n.level) as f64;
@@ -584,6 +605,22 @@ impl Octree {
         f: &E,
         domain: Bounds,
         opts: &OctreeOptions,
+        progress: &(dyn Fn(u8, usize) + Sync),
+    ) -> Octree {
+        Octree::build_refining(f, domain, opts, &Refine::default(), progress)
+    }
+
+    /// [`Octree::build`], also subdividing every cell of `refine` (by its
+    /// level and integer position) above the maximal level, whatever the
+    /// criteria say, empty cells included (they shape the dual cells of
+    /// their neighbours): the cells a caller found too coarse (e.g. for a
+    /// distance tolerance). The children are judged as usual, and every
+    /// guarantee stays (a subdivision never removes surface).
+    pub fn build_refining<E: Evaluator + ?Sized>(
+        f: &E,
+        domain: Bounds,
+        opts: &OctreeOptions,
+        refine: &Refine,
         progress: &(dyn Fn(u8, usize) + Sync),
     ) -> Octree {
         let max_level = opts.max_level.min(MAX_LEVEL);
@@ -622,8 +659,10 @@ impl Octree {
             if frontier.is_empty() {
                 break;
             }
-            let fate = |v: &criteria::Verdict| -> Option<Leaf> {
-                if v.empty {
+            let fate = |v: &criteria::Verdict, forced: bool| -> Option<Leaf> {
+                if forced && level < max_level {
+                    None
+                } else if v.empty {
                     Some(Leaf::Empty)
                 } else if level < min_level {
                     None
@@ -663,7 +702,9 @@ impl Octree {
                             examine(e, &cells[start..end], opts, interpreted)
                         });
                         for (k, v) in verdicts.iter().enumerate() {
-                            let leaf = fate(v);
+                            let node = &tree_ref.nodes[chunk[start + k].0 as usize];
+                            let forced = refine.contains(&(node.level, node.ijk));
+                            let leaf = fate(v, forced);
                             // A subdivided node hands its children the
                             // program pruned on its box. A leaf keeps its
                             // own: pruning an ambiguous one for the proof
