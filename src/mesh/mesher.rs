@@ -190,9 +190,10 @@ const MAX_PASSES: usize = 12;
 
 /// Meshes like [`mesh_with`], then measures every triangle's deviation
 /// from the surface and, while some exceed `tolerance`, meshes again on an
-/// octree that also subdivides the leaves holding those triangles' corners
-/// and centroids ([`Octree::build_refining`]; the set only grows, so a
-/// refined region stays refined), up to `opts.octree.max_level`.
+/// octree that also subdivides the leaves holding those triangles' corners,
+/// centroids and quarter points of their edges ([`Octree::build_refining`];
+/// the set only grows, so a refined region stays refined), up to
+/// `opts.octree.max_level`.
 ///
 /// Refinement is per cell: only where a measured triangle is too far from
 /// the surface do cells get smaller, so flat regions keep the large
@@ -205,17 +206,17 @@ const MAX_PASSES: usize = 12;
 /// to `[0.1, 0.7]`, down to 10⁻³), at most twice. It stops when the
 /// tolerance is met, after 12 passes, or when it stalls with no lowering
 /// left (the cap is too coarse, or the surface too singular for the
-/// measurement: `met` is then false). The octree's criteria and guarantees are those of
-/// [`mesh_with`]: a forced subdivision never discards a cell that may hold
-/// surface.
+/// measurement: `met` is then false). The octree's criteria and guarantees
+/// are those of [`mesh_with`]: a forced subdivision never discards a cell
+/// that may hold surface.
 ///
 /// # Limits
 ///
 /// Each pass rebuilds the mesh from the root (the octree of the last pass
 /// is not reused), so the time is the sum of the passes'. The deviation
 /// is measured at centroids and edge midpoints only (see
-/// [`super::deviation`]); an offending triangle refines the leaves at its
-/// corners and centroid, not every corner of its dual cell, so a few
+/// [`super::deviation`]); an offending triangle refines the leaves under
+/// thirteen of its points, not every corner of its dual cell, so a few
 /// passes may be needed where large leaves meet.
 pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
     f: &E,

@@ -108,14 +108,7 @@ impl<E: Evaluator + ?Sized> Field<'_, E> {
         }
         // Rounding put the point on the wrong side of a face: descend
         // again by the splitting planes themselves.
-        let mut i = 0usize;
-        while self.children[i] != 0 {
-            let first = self.children[i] as usize;
-            let (_, split) = tree.cell_box(&tree.nodes[first]);
-            let c = (0..3).fold(0, |c, k| c | (usize::from(p[k] >= split[k]) << k));
-            i = first + c;
-        }
-        in_box(i).then_some(i)
+        tree.leaf_containing(p).filter(|&i| in_box(i))
     }
 }
 
