@@ -20,7 +20,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use isoc::mesh::mesher::{self, MeshOptions};
+use isoc::mesher::{self, MeshOptions};
 use isoc::octree::OctreeOptions;
 use isoc::twin::{Tracker, TwinOptions, geometric};
 use isoc::{CompileOptions, Surface};

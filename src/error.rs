@@ -1,76 +1,89 @@
-//! Typed errors of the library. Nothing here prints: the binary renders
-//! errors with [`Error::render`] and chooses the exit status.
+//! The library's error: one enum over each stage's own error type, so a
+//! caller can match on what went wrong or just render it. Nothing here
+//! prints or names command-line flags; the binary maps these to its flags,
+//! messages and exit status.
 
-use std::ops::Range;
-
-/// One located problem in a source file.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Diagnostic {
-    /// The message, without the `error:` prefix.
-    pub message: String,
-    /// Byte range in the source that the caret points at.
-    pub span: Range<usize>,
-    /// Extra lines (`= note: …`, `= help: did you mean …`).
-    pub notes: Vec<String>,
-}
-
-impl Diagnostic {
-    pub fn new(message: impl Into<String>, span: Range<usize>) -> Self {
-        Diagnostic {
-            message: message.into(),
-            span,
-            notes: Vec::new(),
-        }
-    }
-
-    pub fn with_note(mut self, note: impl Into<String>) -> Self {
-        self.notes.push(note.into());
-        self
-    }
-}
+use crate::io::WriteError;
+use crate::jit::JitError;
+use crate::surface::CompileError;
+use crate::syntax::{FrontError, SourceError};
+use crate::twin::TrackError;
 
 /// Every failure of the library.
 #[derive(Debug)]
 pub enum Error {
-    /// Problems in a source file: all that were found in one run, in source
-    /// order.
-    Source {
-        file: String,
-        source: String,
-        diagnostics: Vec<Diagnostic>,
-    },
-    /// A bad option value given by the caller (e.g. `--set r=abc`, an unknown
-    /// param, an empty `--domain`).
-    Usage(String),
-    /// Reading or writing a file failed.
-    Io { path: String, error: std::io::Error },
+    /// The front end: problems in the source, or options that do not fit it.
+    Front(FrontError),
     /// The JIT could not compile the kernels.
-    Jit(crate::jit::JitError),
+    Jit(JitError),
+    /// Tracker options out of range (see [`crate::twin::TwinOptions`]).
+    Track(TrackError),
+    /// Writing a mesh failed.
+    Write(WriteError),
+}
+
+impl Error {
+    /// The source diagnostics, when that is what the error is.
+    pub fn source_error(&self) -> Option<&SourceError> {
+        match self {
+            Error::Front(FrontError::Source(e)) => Some(e),
+            _ => None,
+        }
+    }
+
+    /// The error as text, without colours: a source error as its rendered
+    /// diagnostics (`FILE:LINE:COL: error: …` with a caret, see
+    /// [`crate::syntax::diag`]), anything else as `error: MESSAGE`.
+    pub fn render(&self) -> String {
+        match self.source_error() {
+            Some(e) => e.render(),
+            None => format!("error: {self}\n"),
+        }
+    }
 }
 
 impl std::fmt::Display for Error {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.render())
+        match self {
+            Error::Front(e) => e.fmt(f),
+            Error::Jit(e) => e.fmt(f),
+            Error::Track(e) => e.fmt(f),
+            Error::Write(e) => e.fmt(f),
+        }
     }
 }
 
 impl std::error::Error for Error {}
 
-impl Error {
-    /// The error as the command line shows it, without colours: for a
-    /// source error, each diagnostic as `FILE:LINE:COL: error: MESSAGE`, the
-    /// source line, a caret under the span and the notes (see
-    /// [`crate::syntax::diag`]).
-    pub fn render(&self) -> String {
-        match self {
-            Error::Source {
-                file,
-                source,
-                diagnostics,
-            } => crate::syntax::diag::render_all(file, source, diagnostics),
-            Error::Usage(m) => format!("error: {m}\n"),
-            Error::Io { path, error } => format!("error: {path}: {error}\n"),
-            Error::Jit(e) => format!("error: {e}\n"),
+impl From<FrontError> for Error {
+    fn from(e: FrontError) -> Error {
+        Error::Front(e)
+    }
+}
+
+impl From<CompileError> for Error {
+    fn from(e: CompileError) -> Error {
+        match e {
+            CompileError::Front(e) => Error::Front(e),
+            CompileError::Jit(e) => Error::Jit(e),
         }
+    }
+}
+
+impl From<JitError> for Error {
+    fn from(e: JitError) -> Error {
+        Error::Jit(e)
+    }
+}
+
+impl From<TrackError> for Error {
+    fn from(e: TrackError) -> Error {
+        Error::Track(e)
+    }
+}
+
+impl From<WriteError> for Error {
+    fn from(e: WriteError) -> Error {
+        Error::Write(e)
     }
 }

@@ -8,75 +8,84 @@
 
 use std::sync::Arc;
 
-use crate::error::Error;
+use crate::geometry::Bounds;
 use crate::eval::Evaluator;
 use crate::eval::grad::GradEval;
 use crate::interval::{DecInterval, Interval};
 use crate::ir::Program;
-use crate::jit::Kernels;
-use crate::syntax;
+use crate::jit::{JitError, Kernels};
+use crate::syntax::{self, CompileOptions, FrontError};
 
-/// An axis-aligned box `[lo, hi]` in space.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Bounds {
-    pub lo: [f64; 3],
-    pub hi: [f64; 3],
+/// Why a surface could not be compiled: its source (or the options), or
+/// the JIT.
+#[derive(Debug)]
+pub enum CompileError {
+    /// The front end rejected the source or the options.
+    Front(FrontError),
+    /// The JIT could not compile the kernels.
+    Jit(JitError),
 }
 
-impl Bounds {
-    /// Parses `a,b,c,d,e,f` (the command line's `--domain` and `--box`) as
-    /// `[a,b]×[c,d]×[e,f]`; checks that every side is finite and `a <= b`.
-    pub fn parse(text: &str) -> Result<Bounds, Error> {
-        let nums: Vec<f64> = text
-            .split(',')
-            .map(|w| w.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|_| Error::Usage(format!("`{text}` is not six comma-separated numbers")))?;
-        if nums.len() != 6 {
-            return Err(Error::Usage(format!(
-                "`{text}` has {} numbers; a box needs six: a,b,c,d,e,f",
-                nums.len()
-            )));
+impl CompileError {
+    /// The source diagnostics rendered (`FILE:LINE:COL: error: …` with a
+    /// caret), or `error: MESSAGE` for anything else.
+    pub fn render(&self) -> String {
+        match self {
+            CompileError::Front(FrontError::Source(e)) => e.render(),
+            _ => format!("error: {self}\n"),
         }
-        let b = Bounds {
-            lo: [nums[0], nums[2], nums[4]],
-            hi: [nums[1], nums[3], nums[5]],
-        };
-        for k in 0..3 {
-            if !(b.lo[k].is_finite() && b.hi[k].is_finite()) {
-                return Err(Error::Usage(format!("`{text}`: the box is not finite")));
-            }
-            if b.lo[k] > b.hi[k] {
-                return Err(Error::Usage(format!(
-                    "`{text}`: side {} is inverted ({} > {})",
-                    ["x", "y", "z"][k],
-                    b.lo[k],
-                    b.hi[k]
-                )));
-            }
-        }
-        Ok(b)
-    }
-
-    /// The box's sides as intervals `[x, y, z]`.
-    pub fn sides(&self) -> [Interval; 3] {
-        std::array::from_fn(|k| Interval {
-            lo: self.lo[k],
-            hi: self.hi[k],
-        })
     }
 }
 
-/// Options of [`Surface::compile`].
-#[derive(Clone, Debug, Default)]
-pub struct CompileOptions {
-    /// `--set NAME=VALUE` overrides of `param`s, in command-line order.
-    pub params: Vec<(String, f64)>,
-    /// `--domain`: replaces the file's `domain` (and makes it optional).
-    pub domain: Option<Bounds>,
+impl std::fmt::Display for CompileError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CompileError::Front(e) => e.fmt(f),
+            CompileError::Jit(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for CompileError {}
+
+impl From<FrontError> for CompileError {
+    fn from(e: FrontError) -> CompileError {
+        CompileError::Front(e)
+    }
+}
+
+impl From<JitError> for CompileError {
+    fn from(e: JitError) -> CompileError {
+        CompileError::Jit(e)
+    }
 }
 
 /// A compiled surface.
+///
+/// # Example
+///
+/// ```
+/// use isoc::{CompileOptions, Interval, Surface};
+///
+/// // A torus whose tube radius is a param, overridden to 0.25.
+/// let src = "domain [-2, 2]^3; param r = 0.5;
+///            surface (sqrt(x^2 + y^2) - 1)^2 + z^2 = r^2;";
+/// let opts = CompileOptions { params: vec![("r".into(), 0.25)], domain: None };
+/// let torus = Surface::compile(src, "torus.iso", &opts)?;
+/// assert_eq!(torus.params, vec![("r".to_string(), 0.25)]);
+/// // Value and gradient on the outer equator: f = 0, ∇f = (0.5, 0, 0).
+/// let (v, g) = torus.point_grad([1.25, 0.0, 0.0, 0.0]);
+/// assert_eq!((v, g), (0.0, [0.5, 0.0, 0.0]));
+/// // A batch of points in one kernel call, bit for bit the single calls.
+/// let mut out = [0.0; 3];
+/// torus.point_batch(&[0.0, 1.0, 1.25], &[0.0; 3], &[0.0; 3], 0.0, &mut out)?;
+/// assert_eq!(out[1], torus.point([1.0, 0.0, 0.0, 0.0]));
+/// // A guaranteed enclosure of f and ∇f over a box around that point.
+/// let near = |c: f64| Interval { lo: c - 0.01, hi: c + 0.01 };
+/// let e = torus.grad([near(1.25), near(0.0), near(0.0), Interval::point(0.0)]);
+/// assert!(e.value.lo <= 0.0 && 0.0 <= e.value.hi && e.grad[0].lo > 0.0);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone)]
 pub struct Surface {
     /// The file name diagnostics were reported against.
@@ -106,14 +115,14 @@ impl Surface {
     /// Compiles source text. `file` names the source in diagnostics and
     /// chooses the language: a `.vm` file is a Fidget text-SSA model
     /// ([`crate::syntax::vm`]), anything else `.iso`.
-    pub fn compile(source: &str, file: &str, opts: &CompileOptions) -> Result<Surface, Error> {
+    pub fn compile(source: &str, file: &str, opts: &CompileOptions) -> Result<Surface, CompileError> {
         let lowered = syntax::front_end_for(source, file, opts)?;
         Surface::from_program(file, lowered.program, lowered.domain, lowered.params)
     }
 
     /// Compiles a Fidget `.vm` model whatever `file` is called (see
     /// [`crate::syntax::vm`]).
-    pub fn compile_vm(source: &str, file: &str, opts: &CompileOptions) -> Result<Surface, Error> {
+    pub fn compile_vm(source: &str, file: &str, opts: &CompileOptions) -> Result<Surface, CompileError> {
         let lowered = syntax::vm::front_end(source, file, opts)?;
         Surface::from_program(file, lowered.program, lowered.domain, lowered.params)
     }
@@ -125,11 +134,11 @@ impl Surface {
         program: Program,
         domain: Bounds,
         params: Vec<(String, f64)>,
-    ) -> Result<Surface, Error> {
+    ) -> Result<Surface, CompileError> {
         // Nothing is compiled yet: each kernel kind on first use (or by
         // `Kernels::prepare`).
         let kernels =
-            Kernels::lazy(&program, &crate::jit::JitOptions::default()).map_err(Error::Jit)?;
+            Kernels::lazy(&program, &crate::jit::JitOptions::default())?;
         Ok(Surface {
             file: file.to_string(),
             program,
@@ -151,7 +160,7 @@ impl Surface {
         bytes: &[u8],
         file: &str,
         opts: &CompileOptions,
-    ) -> Result<Surface, Error> {
+    ) -> Result<Surface, CompileError> {
         let source = syntax::source_from_bytes(bytes, file)?;
         Surface::compile(&source, file, opts)
     }
@@ -197,10 +206,8 @@ impl Surface {
         zs: &[f64],
         t: f64,
         out: &mut [f64],
-    ) -> Result<(), Error> {
-        self.kernels
-            .point_batch(xs, ys, zs, t, out)
-            .map_err(Error::Jit)
+    ) -> Result<(), JitError> {
+        self.kernels.point_batch(xs, ys, zs, t, out)
     }
 
     /// Interval-gradient enclosures over many boxes (batch kernel).

@@ -1,5 +1,5 @@
 //! `isoc animate` (SPEC §2): tracks a surface in `t` with twinned meshes
-//! ([`crate::twin`]) and writes, per frame `k`, `DIR/geometric_%04d.ply`
+//! ([`isoc::twin`]) and writes, per frame `k`, `DIR/geometric_%04d.ply`
 //! and `DIR/mechanical_%04d.ply`, then `DIR/stats.json` (one object per
 //! frame). Every file is written atomically; a progress bar over frames
 //! goes to stderr; stdout stays empty unless `--json` asks for the stats.
@@ -8,8 +8,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use super::{SourceArgs, compile_file, io_err, write};
-use crate::error::Error;
-use crate::twin::{FrameReport, Tracker, TwinOptions};
+use super::error::Error;
+use isoc::twin::{FrameReport, Tracker, TwinOptions};
 
 /// Options of `isoc animate`.
 #[derive(clap::Args, Debug, Clone)]
@@ -135,7 +135,7 @@ pub(super) fn run(
         .collect();
     let text = serde_json::to_string_pretty(&frames).unwrap_or_default();
     let path = a.output.join("stats.json");
-    crate::io::write_atomic(&path, |w| w.write_all(text.as_bytes()))?;
+    isoc::io::write_atomic(&path, |w| w.write_all(text.as_bytes()))?;
     if a.json {
         write(
             out,
@@ -145,6 +145,6 @@ pub(super) fn run(
     Ok(())
 }
 
-fn write_frame(dir: &Path, kind: &str, k: u32, mesh: &crate::mesh::Mesh) -> Result<(), Error> {
-    crate::io::write_file(mesh, &dir.join(format!("{kind}_{k:04}.ply")))
+fn write_frame(dir: &Path, kind: &str, k: u32, mesh: &isoc::mesh::Mesh) -> Result<(), Error> {
+    Ok(isoc::io::write_file(mesh, &dir.join(format!("{kind}_{k:04}.ply")))?)
 }

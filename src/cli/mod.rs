@@ -3,6 +3,7 @@
 //! return the process exit status; only `main` touches the real process.
 
 mod animate;
+mod error;
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -10,9 +11,9 @@ use std::path::PathBuf;
 use clap::{Parser, Subcommand, ValueEnum};
 use serde_json::{Value as Json, json};
 
-use crate::error::Error;
-use crate::interval::Interval;
-use crate::surface::{Bounds, CompileOptions, Surface};
+use error::Error;
+use isoc::interval::Interval;
+use isoc::{Bounds, CompileOptions, Surface};
 
 /// isoc — compile and mesh implicit surfaces.
 #[derive(Parser, Debug)]
@@ -181,8 +182,42 @@ fn options(args: &SourceArgs) -> Result<CompileOptions, Error> {
         }
         params.push((name.trim().to_string(), v));
     }
-    let domain = args.domain.as_deref().map(Bounds::parse).transpose()?;
+    let domain = args.domain.as_deref().map(parse_box).transpose()?;
     Ok(CompileOptions { params, domain })
+}
+
+/// Parses `a,b,c,d,e,f` (`--domain`, `--box`) as `[a,b]×[c,d]×[e,f]`;
+/// checks that every side is finite and `a <= b`.
+fn parse_box(text: &str) -> Result<Bounds, Error> {
+    let nums: Vec<f64> = text
+        .split(',')
+        .map(|w| w.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| Error::Usage(format!("`{text}` is not six comma-separated numbers")))?;
+    if nums.len() != 6 {
+        return Err(Error::Usage(format!(
+            "`{text}` has {} numbers; a box needs six: a,b,c,d,e,f",
+            nums.len()
+        )));
+    }
+    let b = Bounds {
+        lo: [nums[0], nums[2], nums[4]],
+        hi: [nums[1], nums[3], nums[5]],
+    };
+    for k in 0..3 {
+        if !(b.lo[k].is_finite() && b.hi[k].is_finite()) {
+            return Err(Error::Usage(format!("`{text}`: the box is not finite")));
+        }
+        if b.lo[k] > b.hi[k] {
+            return Err(Error::Usage(format!(
+                "`{text}`: side {} is inverted ({} > {})",
+                ["x", "y", "z"][k],
+                b.lo[k],
+                b.hi[k]
+            )));
+        }
+    }
+    Ok(b)
 }
 
 fn load(args: &SourceArgs) -> Result<(String, Vec<u8>), Error> {
@@ -194,7 +229,7 @@ fn load(args: &SourceArgs) -> Result<(String, Vec<u8>), Error> {
 fn compile_file(args: &SourceArgs) -> Result<Surface, Error> {
     let opts = options(args)?;
     let (name, bytes) = load(args)?;
-    Surface::compile_bytes(&bytes, &name, &opts)
+    Ok(Surface::compile_bytes(&bytes, &name, &opts)?)
 }
 
 fn write(out: &mut dyn Write, text: &str) -> Result<(), Error> {
@@ -204,19 +239,19 @@ fn write(out: &mut dyn Write, text: &str) -> Result<(), Error> {
 fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result<(), Error> {
     if emit == Some(Emit::Ast) {
         let (name, bytes) = load(args)?;
-        let source = crate::syntax::source_from_bytes(&bytes, &name)?;
-        return write(out, &crate::syntax::emit_ast_for(&source, &name)?);
+        let source = isoc::syntax::source_from_bytes(&bytes, &name)?;
+        return write(out, &isoc::syntax::emit_ast_for(&source, &name)?);
     }
     let surface = compile_file(args)?;
     match emit {
         Some(Emit::Ir) => write(out, &surface.program.to_string()),
         Some(kind @ (Emit::Clif | Emit::Asm)) => {
-            let opts = crate::jit::JitOptions {
+            let opts = isoc::jit::JitOptions {
                 keep_text: true,
                 ..Default::default()
             };
-            let kernels = crate::jit::Kernels::lazy(&surface.program, &opts).map_err(Error::Jit)?;
-            kernels.prepare(&crate::jit::Kind::EVERY);
+            let kernels = isoc::jit::Kernels::lazy(&surface.program, &opts)?;
+            kernels.prepare(&isoc::jit::Kind::EVERY);
             let mut s = String::new();
             for info in &kernels.info() {
                 let text = if kind == Emit::Clif {
@@ -248,7 +283,7 @@ fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result
             }
             s += "  kernels (machine code, compile time):\n";
             let k = surface.kernels();
-            k.prepare(&crate::jit::Kind::EVERY);
+            k.prepare(&isoc::jit::Kind::EVERY);
             for info in &k.info() {
                 s += &format!(
                     "    {:<16} {:>8} bytes  {:>8.3} ms\n",
@@ -257,8 +292,8 @@ fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result
                     info.compile_time.as_secs_f64() * 1e3
                 );
             }
-            for kind in crate::jit::Kind::EVERY {
-                if let crate::jit::Engine::Interpreter(why) = k.engine(kind) {
+            for kind in isoc::jit::Kind::EVERY {
+                if let isoc::jit::Engine::Interpreter(why) = k.engine(kind) {
                     s += &format!("    {:<16} interpreted ({why})\n", kind.name());
                 }
             }
@@ -293,7 +328,7 @@ fn eval(
                     "give either X Y Z [T] or --box, not both".into(),
                 ));
             }
-            let b = Bounds::parse(b)?;
+            let b = parse_box(b)?;
             let t = t.unwrap_or(0.0);
             let [x, y, z] = b.sides();
             let g = surface.grad([x, y, z, Interval { lo: t, hi: t }]);
@@ -351,8 +386,8 @@ fn mesh_command(
     out: &mut dyn Write,
     err: &mut dyn Write,
 ) -> Result<(), Error> {
-    use crate::mesh::mesher::{self, MeshOptions, Stage};
-    use crate::octree::{OctreeOptions, TopologyTest};
+    use isoc::mesher::{self, MeshOptions, Stage};
+    use isoc::octree::{OctreeOptions, TopologyTest};
 
     if !(m.kmax.is_finite() && m.kmax >= 0.0) {
         return Err(Error::Usage(format!(
@@ -381,7 +416,7 @@ fn mesh_command(
         None => args.file.with_extension("ply"),
     };
     // Fail on a bad extension before doing any work.
-    crate::io::Format::from_path(&output)?;
+    isoc::io::Format::from_path(&output)?;
 
     let t0 = std::time::Instant::now();
     let surface = compile_file(args)?;
@@ -389,8 +424,8 @@ fn mesh_command(
     // octree will prune the program per cell: its cells then mostly run
     // the pruned programs in the interpreters, and each kernel compiles
     // on first use, if any.
-    if m.no_prune || !crate::eval::prune::has_choices(&surface.program) {
-        surface.kernels().prepare(&crate::jit::Kind::EVERY);
+    if m.no_prune || !isoc::eval::prune::has_choices(&surface.program) {
+        surface.kernels().prepare(&isoc::jit::Kind::EVERY);
     }
     let compile_ms = t0.elapsed().as_secs_f64() * 1e3;
 
@@ -439,7 +474,7 @@ fn mesh_command(
         }
     };
     bar.finish_and_clear();
-    crate::io::write_file(&mesh, &output)?;
+    isoc::io::write_file(&mesh, &output)?;
 
     let r = &report;
     let summary = format!(

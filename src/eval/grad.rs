@@ -47,7 +47,7 @@
 use crate::interval::{self, DecInterval, Interval};
 use crate::ir::{BinOp, Const, Op, Program, UnOp};
 
-use super::point;
+
 
 /// `(F, ∂F/∂x, ∂F/∂y, ∂F/∂z)` enclosed over a box.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -115,13 +115,13 @@ impl Num for f64 {
         n as f64
     }
     fn un(op: UnOp, a: Self) -> Self {
-        point::unary(op, a)
+        crate::ir::semantics::point_unary(op, a)
     }
     fn bin(op: BinOp, a: Self, b: Self) -> Self {
-        point::binary(op, a, b)
+        crate::ir::semantics::point_binary(op, a, b)
     }
     fn powi(a: Self, n: i64) -> Self {
-        point::powi(a, n)
+        crate::ir::semantics::point_powi(a, n)
     }
     fn unknown() -> Self {
         f64::NAN
@@ -195,10 +195,10 @@ impl Num for DecInterval {
         DecInterval::new(Interval::from_i64(n), true)
     }
     fn un(op: UnOp, a: Self) -> Self {
-        dec(interval::unary(op, a.iv), a.defined)
+        dec(crate::ir::semantics::enclose_unary(op, a.iv), a.defined)
     }
     fn bin(op: BinOp, a: Self, b: Self) -> Self {
-        dec(interval::binary(op, a.iv, b.iv), a.defined && b.defined)
+        dec(crate::ir::semantics::enclose_binary(op, a.iv, b.iv), a.defined && b.defined)
     }
     #[inline]
     fn add(a: Self, b: Self) -> Self {
@@ -226,7 +226,7 @@ impl Num for DecInterval {
         dec(interval::unary_with(a.iv, interval::arith::neg), a.defined)
     }
     fn powi(a: Self, n: i64) -> Self {
-        dec(interval::powi(a.iv, n), a.defined)
+        dec(crate::ir::semantics::enclose_powi(a.iv, n), a.defined)
     }
     fn unknown() -> Self {
         DecInterval::new(Interval::ENTIRE, false)

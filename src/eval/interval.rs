@@ -6,7 +6,7 @@
 //! spoil the output's flag. Inputs are normalised with
 //! [`Interval::normalize`] (a NaN bound gives an entire, undefined input).
 
-use crate::interval::{self, DecInterval, Interval};
+use crate::interval::{DecInterval, Interval};
 use crate::ir::{Op, Program, Value};
 
 /// The enclosure of one instruction given the enclosures before it.
@@ -29,17 +29,17 @@ pub fn step(op: &Op, vals: &[DecInterval], input: [Interval; 4]) -> DecInterval 
         }
         Op::Unary(u, a) => {
             let a = get(a);
-            let (iv, ok) = interval::unary(u, a.iv);
+            let (iv, ok) = crate::ir::semantics::enclose_unary(u, a.iv);
             DecInterval::new(iv, ok && a.defined)
         }
         Op::Binary(b, x, y) => {
             let (x, y) = (get(x), get(y));
-            let (iv, ok) = interval::binary(b, x.iv, y.iv);
+            let (iv, ok) = crate::ir::semantics::enclose_binary(b, x.iv, y.iv);
             DecInterval::new(iv, ok && x.defined && y.defined)
         }
         Op::Powi(a, n) => {
             let a = get(a);
-            let (iv, ok) = interval::powi(a.iv, n);
+            let (iv, ok) = crate::ir::semantics::enclose_powi(a.iv, n);
             DecInterval::new(iv, ok && a.defined)
         }
     }

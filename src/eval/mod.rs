@@ -48,6 +48,7 @@ pub mod grad;
 pub mod interval;
 pub mod point;
 pub mod prune;
+pub mod sample;
 
 pub use grad::GradEval;
 

@@ -88,8 +88,6 @@ pub mod elementary;
 pub mod round;
 pub mod trig;
 
-use crate::ir::{BinOp, UnOp};
-
 /// A closed interval `[lo, hi]` of reals, bounds possibly infinite.
 /// The empty interval is `lo = +∞, hi = -∞`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -228,55 +226,7 @@ impl DecInterval {
     }
 }
 
-/// Enclosure of `op(a)` for every `x ∈ a` where `op` is defined, and whether
-/// `op` is defined and continuous on all of `a`.
-#[inline]
-pub fn unary(op: UnOp, a: Interval) -> (Interval, bool) {
-    let (a, ok) = a.normalize();
-    let (r, def) = match op {
-        UnOp::Neg => (arith::neg(a), true),
-        UnOp::Abs => (arith::abs(a), true),
-        UnOp::Sqrt => arith::sqrt(a),
-        UnOp::Square => (arith::square(a), true),
-        UnOp::Exp => (elementary::exp(a), true),
-        UnOp::Log => elementary::log(a),
-        UnOp::Sin => (trig::sin(a), true),
-        UnOp::Cos => (trig::cos(a), true),
-        UnOp::Tan => trig::tan(a),
-        UnOp::Asin => elementary::asin(a),
-        UnOp::Acos => elementary::acos(a),
-        UnOp::Atan => (elementary::atan(a), true),
-        UnOp::Floor => discrete::step_fn(a, f64::floor),
-        UnOp::Ceil => discrete::step_fn(a, f64::ceil),
-        UnOp::Round => discrete::step_fn(a, f64::round),
-        UnOp::Not => discrete::not(a),
-    };
-    (r, def && ok && !a.is_empty())
-}
-
-/// Enclosure of `op(a, b)`, as [`unary`].
-#[inline]
-pub fn binary(op: BinOp, a: Interval, b: Interval) -> (Interval, bool) {
-    let (a, oka) = a.normalize();
-    let (b, okb) = b.normalize();
-    let (r, def) = match op {
-        BinOp::Add => (arith::add(a, b), true),
-        BinOp::Sub => (arith::sub(a, b), true),
-        BinOp::Mul => (arith::mul(a, b), true),
-        BinOp::Div => arith::div(a, b),
-        BinOp::Min => (arith::min(a, b), true),
-        BinOp::Max => (arith::max(a, b), true),
-        BinOp::Atan2 => elementary::atan2(a, b),
-        BinOp::Pow => elementary::pow(a, b),
-        BinOp::Compare => discrete::compare(a, b),
-        BinOp::Mod => discrete::rem_euclid(a, b),
-        BinOp::And => discrete::and(a, b),
-        BinOp::Or => discrete::or(a, b),
-    };
-    (r, def && oka && okb && !a.is_empty() && !b.is_empty())
-}
-
-/// [`binary`] for an op whose rule `rule` is total (defined and continuous
+/// [`crate::ir::semantics::enclose_binary`] for an op whose rule `rule` is total (defined and continuous
 /// everywhere: `Add`, `Sub`, `Mul`, `Min`, `Max`), called directly: the
 /// same result, without the dispatch on the op.
 #[inline]
@@ -290,20 +240,10 @@ pub fn binary_with(
     (rule(a, b), oka && okb && !a.is_empty() && !b.is_empty())
 }
 
-/// [`unary`] for a total op (`Neg`, `Abs`, `Square`), called directly.
+/// [`crate::ir::semantics::enclose_unary`] for a total op (`Neg`, `Abs`, `Square`), called directly.
 #[inline]
 pub fn unary_with(a: Interval, rule: impl Fn(Interval) -> Interval) -> (Interval, bool) {
     let (a, ok) = a.normalize();
     (rule(a), ok && !a.is_empty())
 }
 
-/// Enclosure of `a^n` (exact monotone rules, outward rounded).
-pub fn powi(a: Interval, n: i64) -> (Interval, bool) {
-    let (a, ok) = a.normalize();
-    if n == 0 {
-        // 1 for every input, NaN and empty included (point semantics).
-        return (Interval::point(1.0), ok);
-    }
-    let (r, def) = arith::powi(a, n);
-    (r, def && ok && !a.is_empty())
-}

@@ -12,8 +12,36 @@ pub mod stl;
 use std::io::Write;
 use std::path::Path;
 
-use crate::error::Error;
 use crate::mesh::Mesh;
+
+/// Why a mesh could not be written.
+#[derive(Debug)]
+pub enum WriteError {
+    /// The path's extension names no format this module writes.
+    UnknownFormat(std::path::PathBuf),
+    /// The file system refused (the partial file, if any, is removed).
+    Io {
+        /// The file being written.
+        path: std::path::PathBuf,
+        /// What the system said.
+        error: std::io::Error,
+    },
+}
+
+impl std::fmt::Display for WriteError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            WriteError::UnknownFormat(p) => write!(
+                f,
+                "{}: unknown output format; use .ply, .obj, .stl or .glb",
+                p.display()
+            ),
+            WriteError::Io { path, error } => write!(f, "{}: {error}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for WriteError {}
 
 /// Output formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -26,7 +54,7 @@ pub enum Format {
 
 impl Format {
     /// The format named by a path's extension (case-insensitive).
-    pub fn from_path(path: &Path) -> Result<Format, Error> {
+    pub fn from_path(path: &Path) -> Result<Format, WriteError> {
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
@@ -36,10 +64,7 @@ impl Format {
             Some("obj") => Ok(Format::Obj),
             Some("stl") => Ok(Format::Stl),
             Some("glb") => Ok(Format::Glb),
-            _ => Err(Error::Usage(format!(
-                "{}: unknown output format; use .ply, .obj, .stl or .glb",
-                path.display()
-            ))),
+            _ => Err(WriteError::UnknownFormat(path.to_path_buf())),
         }
     }
 }
@@ -55,7 +80,7 @@ pub fn encode(mesh: &Mesh, format: Format, out: &mut dyn Write) -> std::io::Resu
 }
 
 /// Writes `mesh` to `path` atomically, in the format its extension names.
-pub fn write_file(mesh: &Mesh, path: &Path) -> Result<(), Error> {
+pub fn write_file(mesh: &Mesh, path: &Path) -> Result<(), WriteError> {
     let format = Format::from_path(path)?;
     write_atomic(path, |w| encode(mesh, format, w))
 }
@@ -65,9 +90,9 @@ pub fn write_file(mesh: &Mesh, path: &Path) -> Result<(), Error> {
 pub fn write_atomic(
     path: &Path,
     fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
-) -> Result<(), Error> {
-    let io = |error| Error::Io {
-        path: path.display().to_string(),
+) -> Result<(), WriteError> {
+    let io = |error| WriteError::Io {
+        path: path.to_path_buf(),
         error,
     };
     let dir = match path.parent() {

@@ -14,6 +14,27 @@ use std::collections::HashMap;
 use super::{BinOp, Const, Op, Program, UnOp, Value, Var, dce, fold, simplify};
 
 /// Incremental program builder. See the module doc.
+///
+/// # Example
+///
+/// Build `x² + y² − 1` (constants fold as they are built), evaluate it
+/// with the reference interpreter, and round-trip its text form
+/// (`isoc compile --emit ir`):
+///
+/// ```
+/// use isoc::ir::{BinOp, Builder, Var, text};
+///
+/// let mut b = Builder::new();
+/// let (x, y) = (b.var(Var::X), b.var(Var::Y));
+/// let (x2, y2) = (b.powi(x, 2), b.powi(y, 2));
+/// let sum = b.binary(BinOp::Add, x2, y2);
+/// let one = b.num(1.0);
+/// let f = b.binary(BinOp::Sub, sum, one);
+/// let program = b.finish(f);
+/// assert_eq!(isoc::eval::point::eval(&program, [3.0, 4.0, 0.0, 0.0]), 24.0);
+/// let printed = program.to_string();
+/// assert_eq!(text::parse(&printed).unwrap().to_string(), printed);
+/// ```
 #[derive(Default)]
 pub struct Builder {
     insts: Vec<Op>,

@@ -67,6 +67,7 @@ pub mod builder;
 pub mod dce;
 pub mod fold;
 pub mod literal;
+pub mod semantics;
 pub mod simplify;
 pub mod text;
 

@@ -3,18 +3,17 @@
 //!
 //! Each kernel kind has a single and a batch entry point (ABI table in
 //! [`super`]). The batch entry point is one loop over the records whose
-//! body is the single body ([`batch_loop`]). The interval and gradient
+//! body is the single body ([`super::batch_loop`]). The interval and gradient
 //! entry points call `isoc_rm_enter` first and `isoc_rm_leave` before
 //! returning ([`super::mxcsr`]): a batch switches the mode once, not once
 //! per box.
 
 use cranelift_codegen::ir as clif;
-use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::{AbiParam, InstBuilder, Signature, StackSlotData, StackSlotKind};
 use cranelift_codegen::ir::{Value, types};
 
 use super::helpers::Helper;
-use super::{Env, JitOptions, Kind, grad, interval, pgrad, point, simd};
+use super::{Env, JitOptions, Kind, batch_loop, grad, interval, pgrad, point, simd};
 use crate::ir;
 
 pub(super) fn entry_name(kind: Kind, batch: bool) -> &'static str {
@@ -47,26 +46,6 @@ pub(super) fn entry_sig(
     s.params.extend(params.into_iter().map(AbiParam::new));
     s.returns.extend(ret.map(AbiParam::new));
     s
-}
-
-/// `for i in 0..n { body(env, i) }` in the current block; leaves the
-/// builder in the (empty) exit block.
-pub(super) fn batch_loop(env: &mut Env, n: Value, body: impl FnOnce(&mut Env, Value)) {
-    let header = env.b.create_block();
-    let inner = env.b.create_block();
-    let exit = env.b.create_block();
-    env.b.append_block_param(header, types::I64);
-    let zero = env.b.ins().iconst(types::I64, 0);
-    env.b.ins().jump(header, &[zero.into()]);
-    env.b.switch_to_block(header);
-    let i = env.b.block_params(header)[0];
-    let more = env.b.ins().icmp(IntCC::UnsignedLessThan, i, n);
-    env.b.ins().brif(more, inner, &[], exit, &[]);
-    env.b.switch_to_block(inner);
-    body(env, i);
-    let next = env.b.ins().iadd_imm_s(i, 1);
-    env.b.ins().jump(header, &[next.into()]);
-    env.b.switch_to_block(exit);
 }
 
 /// Emits the entry point's body (loop for batch) into `env`, starting in

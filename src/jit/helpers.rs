@@ -25,7 +25,7 @@ use cranelift_codegen::ir::Type;
 
 use super::mxcsr;
 use crate::eval::grad::{self, Dual};
-use crate::interval::{self, DecInterval, Interval};
+use crate::interval::{DecInterval, Interval};
 use crate::ir::{BinOp, Op, UnOp, Value};
 
 /// Every routine a kernel can call: its symbol (registered with
@@ -161,14 +161,14 @@ const ENTIRE: Interval = Interval {
 
 extern "C" fn pt_unary(op: u32, a: f64) -> f64 {
     match UnOp::ALL.get(op as usize) {
-        Some(&op) => crate::eval::point::unary(op, a),
+        Some(&op) => crate::ir::semantics::point_unary(op, a),
         None => f64::NAN,
     }
 }
 
 extern "C" fn pt_binary(op: u32, a: f64, b: f64) -> f64 {
     match BinOp::ALL.get(op as usize) {
-        Some(&op) => crate::eval::point::binary(op, a, b),
+        Some(&op) => crate::ir::semantics::point_binary(op, a, b),
         None => f64::NAN,
     }
 }
@@ -177,7 +177,7 @@ extern "C" fn pt_binary(op: u32, a: f64, b: f64) -> f64 {
 /// `out` points to 2 writable f64.
 unsafe extern "C" fn iv_unary(op: u32, lo: f64, hi: f64, out: *mut f64) -> u8 {
     let (r, d) = match UnOp::ALL.get(op as usize) {
-        Some(&op) => interval::unary(op, Interval { lo, hi }),
+        Some(&op) => crate::ir::semantics::enclose_unary(op, Interval { lo, hi }),
         None => (ENTIRE, false),
     };
     // SAFETY: the kernel passes a 16-byte aligned stack slot of 2 f64.
@@ -198,7 +198,7 @@ unsafe extern "C" fn iv_binary(
     let a = Interval { lo: alo, hi: ahi };
     let b = Interval { lo: blo, hi: bhi };
     let (r, d) = match BinOp::ALL.get(op as usize) {
-        Some(&op) => interval::binary(op, a, b),
+        Some(&op) => crate::ir::semantics::enclose_binary(op, a, b),
         None => (ENTIRE, false),
     };
     // SAFETY: as in `iv_unary`.
@@ -209,7 +209,7 @@ unsafe extern "C" fn iv_binary(
 /// # Safety
 /// `out` points to 2 writable f64.
 unsafe extern "C" fn iv_powi(lo: f64, hi: f64, n: i64, out: *mut f64) -> u8 {
-    let (r, d) = interval::powi(Interval { lo, hi }, n);
+    let (r, d) = crate::ir::semantics::enclose_powi(Interval { lo, hi }, n);
     // SAFETY: as in `iv_unary`.
     unsafe { write_iv(out, r) };
     d as u8

@@ -107,6 +107,7 @@ pub mod rounding;
 mod simd;
 
 use cranelift_codegen::ir as clif;
+use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::{
     FuncRef, InstBuilder, MemFlagsData, StackSlotData, StackSlotKind, Value, types,
 };
@@ -417,3 +418,24 @@ impl Env<'_> {
         (g, Some(d))
     }
 }
+
+/// `for i in 0..n { body(env, i) }` in the current block; leaves the
+/// builder in the (empty) exit block.
+fn batch_loop(env: &mut Env, n: Value, body: impl FnOnce(&mut Env, Value)) {
+    let header = env.b.create_block();
+    let inner = env.b.create_block();
+    let exit = env.b.create_block();
+    env.b.append_block_param(header, types::I64);
+    let zero = env.b.ins().iconst(types::I64, 0);
+    env.b.ins().jump(header, &[zero.into()]);
+    env.b.switch_to_block(header);
+    let i = env.b.block_params(header)[0];
+    let more = env.b.ins().icmp(IntCC::UnsignedLessThan, i, n);
+    env.b.ins().brif(more, inner, &[], exit, &[]);
+    env.b.switch_to_block(inner);
+    body(env, i);
+    let next = env.b.ins().iadd_imm_s(i, 1);
+    env.b.ins().jump(header, &[next.into()]);
+    env.b.switch_to_block(exit);
+}
+

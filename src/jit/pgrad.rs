@@ -38,7 +38,7 @@ use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{InstBuilder, Value, types};
 
 use super::Env;
-use super::entry::batch_loop;
+use super::batch_loop;
 use super::helpers::{self, Helper, PG_BINARY_BASE};
 use super::point::{div_nan, powi_chain};
 use crate::ir::{BinOp, Op, Program, UnOp};

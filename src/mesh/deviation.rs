@@ -20,7 +20,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::Mesh;
-use super::roots::project;
+use crate::roots::project;
 use crate::eval::Evaluator;
 
 /// The largest distance from the samples of `mesh` (centroids and edge

@@ -1,4 +1,6 @@
-//! Triangle meshes: the mesher's output, its topology and quality.
+//! Triangle meshes: the mesher's output, and its analyses (topology,
+//! triangle quality, distance to the surface). Making and improving meshes
+//! is [`crate::mesher`]'s.
 //!
 //! # Layout
 //!
@@ -9,12 +11,7 @@
 //! right-hand normal points along `+∇f` (outward = increasing f).
 
 pub mod deviation;
-pub mod flip;
-pub mod mesher;
 pub mod quality;
-pub mod roots;
-pub mod sample;
-pub mod smooth;
 pub mod topology;
 
 use glam::DVec3;

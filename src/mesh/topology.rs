@@ -143,6 +143,29 @@ pub fn analyze(mesh: &Mesh) -> Topology {
     }
 }
 
+/// The connected component of every triangle (triangles that share a
+/// vertex are connected), numbered from 0 in order of first appearance.
+pub fn triangle_components(mesh: &Mesh) -> Vec<u32> {
+    let mut uf = UnionFind((0..mesh.positions.len() as u32).collect());
+    for t in &mesh.triangles {
+        uf.union(t[0], t[1]);
+        uf.union(t[1], t[2]);
+    }
+    let mut label = vec![u32::MAX; mesh.positions.len()];
+    let mut next = 0;
+    mesh.triangles
+        .iter()
+        .map(|t| {
+            let r = uf.find(t[0]) as usize;
+            if label[r] == u32::MAX {
+                label[r] = next;
+                next += 1;
+            }
+            label[r]
+        })
+        .collect()
+}
+
 /// Vertices whose incident triangles do not form a single fan (connected
 /// through shared edges around the vertex).
 fn count_bowties(mesh: &Mesh, used: &[bool]) -> usize {

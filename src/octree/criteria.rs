@@ -21,7 +21,7 @@
 //! never guaranteed.
 
 use crate::eval::grad::GradEval;
-use crate::interval::{self, Interval};
+use crate::interval::Interval;
 use crate::ir::BinOp;
 
 /// Which topology test the octree applies.
@@ -63,9 +63,9 @@ pub fn mean_value_form(
     let mut acc = fc;
     for k in 0..3 {
         let point = Interval { lo: c[k], hi: c[k] };
-        let (offset, _) = interval::binary(BinOp::Sub, cell[k], point);
-        let (term, _) = interval::binary(BinOp::Mul, grad[k], offset);
-        acc = interval::binary(BinOp::Add, acc, term).0;
+        let (offset, _) = crate::ir::semantics::enclose_binary(BinOp::Sub, cell[k], point);
+        let (term, _) = crate::ir::semantics::enclose_binary(BinOp::Mul, grad[k], offset);
+        acc = crate::ir::semantics::enclose_binary(BinOp::Add, acc, term).0;
     }
     acc
 }
@@ -103,8 +103,8 @@ pub fn judge(
             let mut dot = Interval { lo: 0.0, hi: 0.0 };
             for c in g.grad {
                 // Two independent factors: a general product, not a square.
-                let (p, _) = interval::binary(BinOp::Mul, c, c);
-                dot = interval::binary(BinOp::Add, dot, p).0;
+                let (p, _) = crate::ir::semantics::enclose_binary(BinOp::Mul, c, c);
+                dot = crate::ir::semantics::enclose_binary(BinOp::Add, dot, p).0;
             }
             !contains_zero(dot)
         }

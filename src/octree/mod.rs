@@ -83,7 +83,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use crate::eval::{Evaluator, Reference, WHOLE, WHOLE_GRAD, prune};
 use crate::interval::Interval;
 use crate::ir::Program;
-use crate::surface::Bounds;
+use crate::geometry::Bounds;
 pub use criteria::TopologyTest;
 pub use field::Field;
 

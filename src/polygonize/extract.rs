@@ -15,8 +15,8 @@
 //!   duplicated vertices. Edges whose two corners are the same leaf cannot
 //!   carry a vertex (equal values).
 //! - Vertices are placed by bisection on the exact function
-//!   ([`crate::mesh::roots::bisect_batch`], bit for bit
-//!   [`crate::mesh::roots::bisect`]), not by linear interpolation; the
+//!   ([`crate::roots::bisect_batch`], bit for bit
+//!   [`crate::roots::bisect`]), not by linear interpolation; the
 //!   interior vertices that MC33 adds for tunnels are mapped through the
 //!   dual cell's trilinear map and projected onto `f = 0`.
 //! - Triangles whose vertices repeat (degenerate dual cells map two cell
@@ -32,7 +32,7 @@
 //! walk has met them all), the edge vertices (lock-step bisection, one
 //! batch per step per chunk of edges) and the vertex normals
 //! ([`Evaluator::point_grad_batch`]). The projection of MC33's interior
-//! vertices ([`crate::mesh::roots::project`]) is sequential per vertex
+//! vertices ([`crate::roots::project`]) is sequential per vertex
 //! (each evaluation depends on the last); those vertices run in parallel.
 
 use glam::DVec3;
@@ -44,8 +44,8 @@ use std::collections::HashMap;
 use crate::dual::{self, Corner, DualCell};
 use crate::eval::Evaluator;
 use crate::mesh::Mesh;
-use crate::mesh::roots::{Segment, bisect_batch, project};
-use crate::mesh::sample::{normals_at, values_at};
+use crate::roots::{Segment, bisect_batch, project};
+use crate::eval::sample::{normals_at, values_at};
 use crate::octree::{Leaf, Octree};
 
 /// A mesh vertex before numbering: an edge between two leaves (smaller

@@ -10,8 +10,8 @@
 //! * [`extract`]: dual marching cubes over the octree — every active dual
 //!   cell through [`mc33`], vertices keyed by leaf pairs and bisected onto
 //!   the surface, joined into one mesh.
-//! * [`topology`]: components and Euler characteristic of a triangle set with
-//!   shared vertex ids (used by the MC33 verification).
+//!
+//! The topology of the result is measured by [`crate::mesh::topology`].
+
 pub mod extract;
 pub mod mc33;
-pub mod topology;

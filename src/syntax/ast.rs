@@ -18,7 +18,7 @@
 //! [`Ast::print`] used by `isoc compile --emit ast`, and [`Ast::print_infix`]
 //! (source text again, fully parenthesised).
 
-use crate::error::Diagnostic;
+use super::diag::Diagnostic;
 use std::fmt::Write;
 use std::ops::Range;
 

@@ -16,10 +16,67 @@
 //! Line/column lookup uses `codespan-reporting`'s [`SimpleFile`]. No colours,
 //! no panics: spans past the end of the source or inside a UTF-8 character
 //! are clamped. [`closest`] finds the nearest candidate by edit distance.
+//! A [`SourceError`] holds every diagnostic of one file together with its
+//! text, and renders itself.
 
-use crate::error::Diagnostic;
 use codespan_reporting::files::{Files, SimpleFile};
 use std::fmt::Write;
+use std::ops::Range;
+
+/// One located problem in a source file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diagnostic {
+    /// The message, without the `error:` prefix.
+    pub message: String,
+    /// Byte range in the source that the caret points at.
+    pub span: Range<usize>,
+    /// Extra lines (`= note: …`, `= help: did you mean …`).
+    pub notes: Vec<String>,
+}
+
+impl Diagnostic {
+    /// A diagnostic with `message` at `span` and no notes.
+    pub fn new(message: impl Into<String>, span: Range<usize>) -> Self {
+        Diagnostic {
+            message: message.into(),
+            span,
+            notes: Vec::new(),
+        }
+    }
+
+    /// `self` with one more note line.
+    pub fn with_note(mut self, note: impl Into<String>) -> Self {
+        self.notes.push(note.into());
+        self
+    }
+}
+
+/// Every problem found in one source file, with the text they point into.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceError {
+    /// The file name the diagnostics are reported against.
+    pub file: String,
+    /// The source text (lossily decoded when it was not UTF-8).
+    pub source: String,
+    /// The problems, in source order.
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+impl SourceError {
+    /// Each diagnostic as `FILE:LINE:COL: error: MESSAGE`, the source line,
+    /// a caret under the span and the notes (see the module doc).
+    pub fn render(&self) -> String {
+        render_all(&self.file, &self.source, &self.diagnostics)
+    }
+}
+
+impl std::fmt::Display for SourceError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.render())
+    }
+}
+
+impl std::error::Error for SourceError {}
 
 /// Renders every diagnostic of `diags` (see the module doc), in order.
 pub fn render_all(file: &str, source: &str, diags: &[Diagnostic]) -> String {

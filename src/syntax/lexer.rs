@@ -14,7 +14,7 @@
 //! lalrpop grammar (`grammar/isoc.lalrpop`, `extern` block). [`lex`] turns the
 //! `logos` stream into the `(start, token, end)` triples that lalrpop expects.
 
-use crate::error::Diagnostic;
+use super::diag::Diagnostic;
 use logos::Logos;
 use std::fmt;
 

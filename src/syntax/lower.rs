@@ -22,7 +22,7 @@
 //! task-stack lowering; [`literal`] gives the enclosure of a literal.
 
 use super::ast::{Ast, BinKind, ExprId, ExprKind};
-use super::resolve::{Builtin, Res, Resolved};
+use super::names::{Builtin, Res, Resolved};
 use crate::ir::{BinOp, Builder, Const, Program, UnOp, Value, Var};
 use std::collections::HashMap;
 
@@ -119,7 +119,7 @@ impl Sink for F64 {
             UnOp::Asin => a.asin(),
             UnOp::Acos => a.acos(),
             UnOp::Atan => a.atan(),
-            UnOp::Floor | UnOp::Ceil | UnOp::Round | UnOp::Not => crate::eval::point::unary(op, a),
+            UnOp::Floor | UnOp::Ceil | UnOp::Round | UnOp::Not => crate::ir::semantics::point_unary(op, a),
         }
     }
     fn binary(&mut self, op: BinOp, a: f64, b: f64) -> f64 {
@@ -133,7 +133,7 @@ impl Sink for F64 {
             BinOp::Atan2 => a.atan2(b),
             BinOp::Pow => self.power(a, b),
             BinOp::Compare | BinOp::Mod | BinOp::And | BinOp::Or => {
-                crate::eval::point::binary(op, a, b)
+                crate::ir::semantics::point_binary(op, a, b)
             }
         }
     }

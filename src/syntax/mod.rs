@@ -4,7 +4,7 @@
 //!
 //! [`front_end`] lexes, parses, resolves, checks and lowers one `.iso` file
 //! (SPEC §1). It never panics, never recurses on the input's nesting depth
-//! and reports *every* problem it finds in one [`Error::Source`] (sorted by
+//! and reports *every* problem it finds in one [`FrontError::Source`] (sorted by
 //! position, at most [`MAX_DIAGNOSTICS`]). [`emit_ast`] stops after parsing
 //! and prints the AST. [`source_from_bytes`] turns raw file bytes into the
 //! source string, reporting invalid UTF-8 with its location.
@@ -17,21 +17,34 @@
 //! - [`parser`]: the lalrpop grammar `grammar/isoc.lalrpop`, with recovery;
 //! - [`ast`]: the arena AST and its printer;
 //! - [`resolve`]: names, semantic checks, constants (params, domain);
+//! - [`names`]: what resolution decides (built-ins, [`names::Res`], [`names::Resolved`]);
 //! - [`lower`]: inlining and lowering to [`crate::ir`];
 //! - [`diag`]: rendering diagnostics, "did you mean";
 //! - [`vm`]: the `.vm` reader (SPEC §1.1).
 
 pub mod ast;
 pub mod diag;
+pub mod error;
 pub mod lexer;
 pub mod lower;
+pub mod names;
 pub mod parser;
 pub mod resolve;
 pub mod vm;
 
-use crate::error::{Diagnostic, Error};
+pub use diag::{Diagnostic, SourceError};
+pub use error::FrontError;
 use crate::ir::Program;
-use crate::surface::{Bounds, CompileOptions};
+use crate::geometry::Bounds;
+
+/// Options of the front end (and of [`crate::Surface::compile`]).
+#[derive(Clone, Debug, Default)]
+pub struct CompileOptions {
+    /// Overrides of the file's `param`s (name, value), applied in order.
+    pub params: Vec<(String, f64)>,
+    /// Replaces the file's `domain` (and makes the statement optional).
+    pub domain: Option<Bounds>,
+}
 
 /// At most this many diagnostics are reported for one file (binary garbage
 /// would otherwise produce one per byte).
@@ -48,7 +61,7 @@ pub struct Lowered {
 }
 
 /// Compiles `source` (named `file` in messages) to IR. See the module doc.
-pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowered, Error> {
+pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowered, FrontError> {
     let ast = parser::parse(source);
     let mut diags = ast.errors.clone();
     let complete = diags.is_empty();
@@ -93,50 +106,46 @@ pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowe
     })
 }
 
-/// Checks the `--set` overrides against the file's params: every value
+/// Checks the param overrides against the file's params: every value
 /// finite, every name a param of the file.
 pub(crate) fn check_params(
     file: &str,
     params: &[(String, f64)],
     opts: &CompileOptions,
-) -> Result<(), Error> {
+) -> Result<(), FrontError> {
     for (name, v) in &opts.params {
         if !v.is_finite() {
-            return Err(Error::Usage(format!(
-                "--set {name}={v}: the value must be a finite number"
-            )));
+            return Err(FrontError::ParamNotFinite {
+                name: name.clone(),
+                value: *v,
+            });
         }
         if !params.iter().any(|(p, _)| p == name) {
             let known: Vec<&str> = params.iter().map(|(p, _)| p.as_str()).collect();
-            let hint = match diag::closest(name, known.iter().copied()) {
-                Some(c) => format!(" (did you mean `{c}`?)"),
-                None if known.is_empty() => " (the file has no params)".to_string(),
-                None => format!(" (the file's params: {})", known.join(", ")),
-            };
-            return Err(Error::Usage(format!(
-                "--set {name}=…: `{name}` is not a param of {file}{hint}"
-            )));
+            return Err(FrontError::UnknownParam {
+                name: name.clone(),
+                file: file.to_string(),
+                closest: diag::closest(name, known.iter().copied()).map(str::to_string),
+                known: known.iter().map(|k| k.to_string()).collect(),
+            });
         }
     }
     Ok(())
 }
 
-/// Checks `--domain` (every range finite and non-empty) and returns it.
-pub(crate) fn check_domain(opts: &CompileOptions) -> Result<Option<Bounds>, Error> {
+/// Checks the replacement domain (every range finite and non-empty) and returns it.
+pub(crate) fn check_domain(opts: &CompileOptions) -> Result<Option<Bounds>, FrontError> {
     if let Some(d) = opts.domain
         && !(0..3).all(|i| d.lo[i].is_finite() && d.hi[i].is_finite() && d.lo[i] < d.hi[i])
     {
-        return Err(Error::Usage(format!(
-            "--domain: every range must be finite and non-empty, got [{}, {}] x [{}, {}] x [{}, {}]",
-            d.lo[0], d.hi[0], d.lo[1], d.hi[1], d.lo[2], d.hi[2]
-        )));
+        return Err(FrontError::BadDomain(d));
     }
     Ok(opts.domain)
 }
 
 /// The front end for `file`, chosen by its extension: `.vm` → [`vm`]
 /// (Fidget's text-SSA models), anything else → `.iso` ([`front_end`]).
-pub fn front_end_for(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowered, Error> {
+pub fn front_end_for(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowered, FrontError> {
     if vm::is_vm_file(file) {
         vm::front_end(source, file, opts)
     } else {
@@ -145,7 +154,7 @@ pub fn front_end_for(source: &str, file: &str, opts: &CompileOptions) -> Result<
 }
 
 /// `--emit ast` for `file`, chosen by its extension as [`front_end_for`].
-pub fn emit_ast_for(source: &str, file: &str) -> Result<String, Error> {
+pub fn emit_ast_for(source: &str, file: &str) -> Result<String, FrontError> {
     if vm::is_vm_file(file) {
         vm::emit_ast(source, file)
     } else {
@@ -155,7 +164,7 @@ pub fn emit_ast_for(source: &str, file: &str) -> Result<String, Error> {
 
 /// Parses `source` and prints its AST (`isoc compile --emit ast`): one
 /// fully parenthesised s-expression per statement. Syntax errors only.
-pub fn emit_ast(source: &str, file: &str) -> Result<String, Error> {
+pub fn emit_ast(source: &str, file: &str) -> Result<String, FrontError> {
     let ast = parser::parse(source);
     if !ast.errors.is_empty() {
         return Err(source_error(file, source, ast.errors));
@@ -163,11 +172,11 @@ pub fn emit_ast(source: &str, file: &str) -> Result<String, Error> {
     Ok(ast.print())
 }
 
-/// The source text of a file's bytes. Invalid UTF-8 is an
-/// [`Error::Source`] with one diagnostic per invalid sequence, located in
+/// The source text of a file's bytes. Invalid UTF-8 is a
+/// [`FrontError::Source`] with one diagnostic per invalid sequence, located in
 /// the lossily decoded text (each bad sequence shown as U+FFFD). NUL bytes
 /// are valid UTF-8 and are left to the lexer.
-pub fn source_from_bytes(bytes: &[u8], file: &str) -> Result<String, Error> {
+pub fn source_from_bytes(bytes: &[u8], file: &str) -> Result<String, FrontError> {
     let Err(_) = std::str::from_utf8(bytes) else {
         return Ok(String::from_utf8_lossy(bytes).into_owned());
     };
@@ -189,7 +198,7 @@ pub fn source_from_bytes(bytes: &[u8], file: &str) -> Result<String, Error> {
     Err(source_error(file, &text, diags))
 }
 
-pub(crate) fn source_error(file: &str, source: &str, mut diags: Vec<Diagnostic>) -> Error {
+pub(crate) fn source_error(file: &str, source: &str, mut diags: Vec<Diagnostic>) -> FrontError {
     diags.sort_by_key(|d| (d.span.start, d.span.end));
     if diags.len() > MAX_DIAGNOSTICS {
         let n = diags.len();
@@ -200,9 +209,9 @@ pub(crate) fn source_error(file: &str, source: &str, mut diags: Vec<Diagnostic>)
             at,
         ));
     }
-    Error::Source {
+    FrontError::Source(SourceError {
         file: file.to_string(),
         source: source.to_string(),
         diagnostics: diags,
-    }
+    })
 }

@@ -18,7 +18,7 @@
 
 use super::ast::Ast;
 use super::lexer::{Spanned, Tok, lex};
-use crate::error::Diagnostic;
+use super::diag::Diagnostic;
 use lalrpop_util::{ErrorRecovery, ParseError};
 use std::convert::Infallible;
 

@@ -25,40 +25,13 @@
 
 use super::ast::{Ast, ExprId, ExprKind, Ident, Span, StmtKind};
 use super::diag::closest;
+use super::names::{BUILTINS, Builtin, FnDef, Res, Resolved};
 use super::lower::eval_const;
-use crate::error::Diagnostic;
-use crate::ir::{UnOp, Var};
-use crate::surface::{Bounds, CompileOptions};
+use super::diag::Diagnostic;
+use crate::ir::Var;
+use super::CompileOptions;
+use crate::geometry::Bounds;
 use std::collections::HashMap;
-
-/// A built-in function.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Builtin {
-    Unary(UnOp),
-    Atan2,
-    /// `pow(a, b)`, the same as `a ^ b`.
-    Pow,
-    Min,
-    Max,
-}
-
-/// All built-in functions by name.
-pub const BUILTINS: [(&str, Builtin); 14] = [
-    ("sqrt", Builtin::Unary(UnOp::Sqrt)),
-    ("abs", Builtin::Unary(UnOp::Abs)),
-    ("sin", Builtin::Unary(UnOp::Sin)),
-    ("cos", Builtin::Unary(UnOp::Cos)),
-    ("tan", Builtin::Unary(UnOp::Tan)),
-    ("asin", Builtin::Unary(UnOp::Asin)),
-    ("acos", Builtin::Unary(UnOp::Acos)),
-    ("atan", Builtin::Unary(UnOp::Atan)),
-    ("exp", Builtin::Unary(UnOp::Exp)),
-    ("log", Builtin::Unary(UnOp::Log)),
-    ("atan2", Builtin::Atan2),
-    ("pow", Builtin::Pow),
-    ("min", Builtin::Min),
-    ("max", Builtin::Max),
-];
 
 fn builtin(name: &str) -> Option<Builtin> {
     BUILTINS.iter().find(|(n, _)| *n == name).map(|&(_, b)| b)
@@ -66,47 +39,6 @@ fn builtin(name: &str) -> Option<Builtin> {
 
 fn coordinate(name: &str) -> Option<Var> {
     Var::ALL.into_iter().find(|v| v.name() == name)
-}
-
-/// What a name or call node refers to.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Res {
-    /// Not a name/call node, or a node whose resolution failed.
-    None,
-    Coord(Var),
-    Pi,
-    /// Index into [`Resolved::params`].
-    Param(usize),
-    /// Index into [`Resolved::lets`].
-    Let(usize),
-    /// The i-th parameter of the enclosing fn.
-    FnParam(usize),
-    Builtin(Builtin),
-    /// Index into [`Resolved::fns`].
-    Fn(usize),
-}
-
-/// A function definition.
-#[derive(Clone, Debug)]
-pub struct FnDef {
-    pub name: String,
-    pub arity: usize,
-    pub body: ExprId,
-}
-
-/// The result of resolution. See the module doc.
-#[derive(Clone, Debug, Default)]
-pub struct Resolved {
-    pub res: Vec<Res>,
-    /// Bodies of the `let`s, in source order.
-    pub lets: Vec<ExprId>,
-    /// Every `param` with its final value (after `--set`), in source order.
-    pub params: Vec<(String, f64)>,
-    pub fns: Vec<FnDef>,
-    /// The first `surface`: lhs, rhs, statement span.
-    pub surface: Option<(ExprId, Option<ExprId>, Span)>,
-    /// The file's domain (not `--domain`), when it is valid.
-    pub domain: Option<Bounds>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

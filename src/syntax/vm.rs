@@ -46,9 +46,10 @@ use std::fmt::Write;
 use std::ops::Range;
 
 use super::{Lowered, diag, source_error};
-use crate::error::{Diagnostic, Error};
+use super::{Diagnostic, FrontError};
 use crate::ir::{BinOp, Builder, Const, UnOp, Value, Var};
-use crate::surface::{Bounds, CompileOptions};
+use super::CompileOptions;
+use crate::geometry::Bounds;
 
 /// The domain of a `.vm` model when `--domain` is not given.
 pub const DEFAULT_DOMAIN: Bounds = Bounds {
@@ -252,7 +253,7 @@ fn check_op(line: &Line) -> Result<Kind, Diagnostic> {
 }
 
 /// Reads a `.vm` model (see the module doc).
-pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowered, Error> {
+pub fn front_end(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowered, FrontError> {
     let mut b = Builder::new();
     // NAME → its value (None: the line had an error) and where it was defined.
     let mut names: HashMap<&str, (Option<Value>, Range<usize>)> = HashMap::new();
@@ -362,7 +363,7 @@ fn line_col(source: &str, pos: usize) -> (usize, usize) {
 /// `isoc compile --emit ast` for a `.vm` file: the instructions as
 /// s-expressions `(NAME OP ARG...)`, one a line, after checking every line
 /// (a `.vm` model has no tree; this is its parse).
-pub fn emit_ast(source: &str, file: &str) -> Result<String, Error> {
+pub fn emit_ast(source: &str, file: &str) -> Result<String, FrontError> {
     let lowered = front_end(source, file, &CompileOptions::default())?;
     drop(lowered);
     let mut out = String::new();

@@ -9,7 +9,7 @@
 //! both triangles (Fig. 7b). The test is `n₁·n₂ < cos α_r`, so α_r = −π
 //! marks nothing: with α_r = −π or `N_p = 0` the result is an exact copy
 //! of the mechanical mesh. Each marked edge gets its midpoint projected
-//! onto the surface by [`super::project::newton`] (an edge whose midpoint
+//! onto the surface by [`crate::roots::walk::newton`] (an edge whose midpoint
 //! cannot be projected within the edge's length stays unmarked). A
 //! triangle with one, two or three marked edges becomes two, three or
 //! four triangles (Fig. 7a); with two, the quad left beside the corner
@@ -21,7 +21,7 @@
 //! not started (sharp creases mark edges on every pass).
 //!
 //! Evaluation: the centroid gradients of a pass are one batch
-//! ([`crate::mesh::sample::grads_at`]); the midpoint projections are
+//! ([`crate::eval::sample::grads_at`]); the midpoint projections are
 //! sequential Newton walks, run in parallel.
 
 use rustc_hash::{FxHashMap as HashMap, FxHashSet};
@@ -30,10 +30,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::dynmesh::{EdgeKey, key};
-use super::project::newton;
+use crate::roots::walk::newton;
 use crate::eval::Evaluator;
 use crate::mesh::Mesh;
-use crate::mesh::sample::grads_at;
+use crate::eval::sample::grads_at;
 
 /// What [`refine`] did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -7,7 +7,7 @@
 //! # Contract
 //!
 //! [`Tracker::new`] meshes the surface at `t₀` with the robust mesher
-//! ([`crate::mesh::mesher`]) on a uniform octree whose cells match the
+//! ([`crate::mesher`]) on a uniform octree whose cells match the
 //! target edge length ê (§2.1; no separate relaxation: the first frames
 //! relax it). Each [`Tracker::advance`]`(t)` then
 //!
@@ -27,7 +27,7 @@
 //!    moved off the CG recurrence, the recurrence restarted — did not
 //!    converge in our tests (the mesh crumpled on the ‖·‖₁ ball; see the
 //!    test `sharp_feature_constraint_aligns_triangles_with_the_gradient`);
-//! 3. **projects** every vertex onto `f(·, t) = 0` ([`project`], eq. 3,
+//! 3. **projects** every vertex onto `f(·, t) = 0` ([`crate::roots::walk`], eq. 3,
 //!    safeguarded); a vertex that cannot be projected within reach means
 //!    the mesh lost the surface, and the mechanical mesh is re-initialised
 //!    from the robust mesher;
@@ -49,14 +49,14 @@
 //! ([`Tracker::with_evaluator`]; [`Tracker::new`] takes a compiled
 //! [`Surface`]). The gradients at all vertices before a step and at the
 //! triangle centroids of the sharp-feature constraint are batches
-//! ([`crate::mesh::sample::grads_at`]); the projections are sequential
-//! Newton walks ([`project`]), one per vertex, run in parallel; remeshing
+//! ([`crate::eval::sample::grads_at`]); the projections are sequential
+//! Newton walks ([`crate::roots::walk`]), one per vertex, run in parallel; remeshing
 //! evaluates one point at a time (see [`remesh`]).
 
 pub mod dynmesh;
+pub mod error;
 pub mod fem;
 pub mod geometric;
-pub mod project;
 pub mod remesh;
 pub mod watch;
 
@@ -66,15 +66,16 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::error::Error;
 use crate::eval::Evaluator;
 use crate::interval::Interval;
-use crate::mesh::mesher::{self, MeshOptions};
-use crate::mesh::sample::grads_at;
+use crate::mesher::{self, MeshOptions};
+use crate::eval::sample::grads_at;
 use crate::mesh::{Mesh, quality, topology};
 use crate::octree::OctreeOptions;
-use crate::surface::{Bounds, Surface};
+use crate::geometry::Bounds;
+use crate::surface::Surface;
 use dynmesh::{DynMesh, EdgeKey, key};
+pub use error::TrackError;
 use fem::{Frames, Stiffness};
 
 /// Options of the tracker (`isoc animate`). Defaults follow the paper's
@@ -181,6 +182,30 @@ pub struct FrameReport {
 }
 
 /// The stepper: see the module doc.
+///
+/// # Example
+///
+/// A sphere whose radius grows with t, tracked over two frames: the
+/// mechanical mesh follows it, every vertex on the surface of its frame.
+///
+/// ```
+/// use isoc::{CompileOptions, Surface, Tracker, TwinOptions};
+///
+/// let grow = Surface::compile(
+///     "domain [-2, 2]^3; surface x^2 + y^2 + z^2 = (1 + 0.2 * t)^2;",
+///     "grow.iso",
+///     &CompileOptions::default(),
+/// )?;
+/// let opts = TwinOptions { edge: Some(0.25), ..TwinOptions::default() };
+/// let mut tracker = Tracker::new(&grow, 0.0, &opts)?;
+/// for t in [0.5, 1.0] {
+///     let frame = tracker.advance(t)?;
+///     assert_eq!((frame.components, frame.genus.clone()), (1, vec![Some(0)]));
+///     let r = 1.0 + 0.2 * t;
+///     assert!(tracker.mechanical().positions.iter().all(|p| (p.length() - r).abs() < 1e-9));
+/// }
+/// # Ok::<(), isoc::Error>(())
+/// ```
 pub struct Tracker<'s, E: Evaluator + ?Sized = Surface> {
     f: &'s E,
     /// `f` depends on t (otherwise the topology cannot change).
@@ -204,14 +229,10 @@ fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
-fn usage(m: String) -> Error {
-    Error::Usage(m)
-}
-
 impl<'s> Tracker<'s, Surface> {
     /// Meshes `surface` at `t0` over `opts.domain` or the surface's own
     /// (see the module doc).
-    pub fn new(surface: &'s Surface, t0: f64, opts: &TwinOptions) -> Result<Tracker<'s>, Error> {
+    pub fn new(surface: &'s Surface, t0: f64, opts: &TwinOptions) -> Result<Tracker<'s>, TrackError> {
         // A surface that does not depend on t cannot change (the program
         // is simplified and dead-code free, so an unused t is absent).
         let moves = surface
@@ -233,7 +254,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         moves: bool,
         t0: f64,
         opts: &TwinOptions,
-    ) -> Result<Tracker<'s, E>, Error> {
+    ) -> Result<Tracker<'s, E>, TrackError> {
         let domain = opts.domain.unwrap_or(domain);
         let side = (0..3)
             .map(|k| domain.hi[k] - domain.lo[k])
@@ -241,43 +262,47 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         let edge = opts.edge.unwrap_or(side / 40.0);
         let positive = |x: f64| x.is_finite() && x > 0.0;
         if !positive(edge) {
-            return Err(usage(format!("--edge must be positive, got {edge}")));
+            return Err(TrackError::EdgeNotPositive(edge));
         }
         if edge < side / 1000.0 {
-            return Err(usage(format!(
-                "--edge {edge} is below the domain's largest side / 1000 ({}): the mechanical mesh would need millions of triangles",
-                side / 1000.0
-            )));
+            return Err(TrackError::EdgeTooSmall {
+                edge,
+                min: side / 1000.0,
+            });
         }
         if opts.passes > MAX_PASSES {
-            return Err(usage(format!(
-                "--passes {} is above {MAX_PASSES} (each pass can double the geometric mesh)",
-                opts.passes
-            )));
+            return Err(TrackError::TooManyPasses {
+                passes: opts.passes,
+                max: MAX_PASSES,
+            });
         }
         if !t0.is_finite() {
-            return Err(usage(format!("time must be finite, got {t0}")));
+            return Err(TrackError::Time(t0));
         }
         if !(positive(opts.e_min)
             && opts.e_max > 2.0 * opts.e_min - 1e-12
             && opts.e_max.is_finite())
         {
-            return Err(usage(format!(
-                "need 0 < e_min and e_max ≥ 2·e_min (a split must not call for a collapse), got {} and {}",
-                opts.e_min, opts.e_max
-            )));
+            return Err(TrackError::EdgeBand {
+                e_min: opts.e_min,
+                e_max: opts.e_max,
+            });
         }
         if !(positive(opts.young) && opts.poisson > -1.0 && opts.poisson < 0.5) {
-            return Err(usage(format!(
-                "need E > 0 and −1 < ν < 0.5, got {} and {}",
-                opts.young, opts.poisson
-            )));
+            return Err(TrackError::Material {
+                young: opts.young,
+                poisson: opts.poisson,
+            });
         }
         if !(positive(opts.dt) && opts.eps_e >= 0.0 && positive(opts.max_move)) {
-            return Err(usage("dt, max_move must be positive, eps_e ≥ 0".into()));
+            return Err(TrackError::Step {
+                dt: opts.dt,
+                eps_e: opts.eps_e,
+                max_move: opts.max_move,
+            });
         }
         if !opts.alpha_deg.is_finite() {
-            return Err(usage("--alpha must be finite".into()));
+            return Err(TrackError::Alpha(opts.alpha_deg));
         }
         // Octree cells of about 1.5 ê: marching-cubes edges then span
         // roughly [0, 2] ê, the band the remeshing keeps.
@@ -405,9 +430,9 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
     }
 
     /// Advances to time `t`: one frame (see the module doc).
-    pub fn advance(&mut self, t: f64) -> Result<FrameReport, Error> {
+    pub fn advance(&mut self, t: f64) -> Result<FrameReport, TrackError> {
         if !t.is_finite() {
-            return Err(usage(format!("time must be finite, got {t}")));
+            return Err(TrackError::Time(t));
         }
         let start = Instant::now();
         let mut rep = FrameReport {
@@ -605,14 +630,14 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
 
         // Projection (eq. 3), in parallel.
         let reach = self.opts.max_move * self.edge;
-        let moved: Vec<Option<project::OnSurface>> = (0..n)
+        let moved: Vec<Option<crate::roots::walk::OnSurface>> = (0..n)
             .into_par_iter()
             .map(|i| {
                 if !self.mesh.vert_alive[i] {
                     return None;
                 }
                 let p = self.mesh.pos[i] + dx[i];
-                project::newton(self.f, t, p, reach, self.edge)
+                crate::roots::walk::newton(self.f, t, p, reach, self.edge)
             })
             .collect();
         let mut failures = 0;

@@ -9,7 +9,7 @@
 //! - **split** when `‖e‖ > e_max·ê` and the edge is not shrinking
 //!   (`Δ > −ε_e·ê`), unless one of its triangles is inverted (§2.6.1,
 //!   case 4). The new vertex is the midpoint projected onto the surface by
-//!   [`super::project::newton`]; if that fails the edge is left alone.
+//!   [`crate::roots::walk::newton`]; if that fails the edge is left alone.
 //! - **collapse** when `‖e‖ < e_min·ê` and the edge is not growing
 //!   (`Δ < ε_e·ê`): both ends merge at the projected midpoint, only if the
 //!   link condition holds (no non-manifold result, Fig. 3), no surviving
@@ -42,7 +42,7 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use glam::DVec3;
 
 use super::dynmesh::{DynMesh, EdgeKey, key};
-use super::project::newton;
+use crate::roots::walk::newton;
 use crate::eval::Evaluator;
 
 /// Thresholds of [`remesh`].

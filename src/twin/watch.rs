@@ -32,7 +32,7 @@ use glam::DVec3;
 
 use crate::eval::{Evaluator, WHOLE, WHOLE_GRAD};
 use crate::interval::Interval;
-use crate::surface::Bounds;
+use crate::geometry::Bounds;
 
 /// What [`certify`] concluded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -628,8 +628,8 @@ pub fn isoc_mesh(
     case: &Case,
     level: u8,
     smooth: usize,
-) -> (isoc::mesh::Mesh, isoc::mesh::mesher::MeshReport) {
-    let opts = isoc::mesh::mesher::MeshOptions {
+) -> (isoc::mesh::Mesh, isoc::mesher::MeshReport) {
+    let opts = isoc::mesher::MeshOptions {
         octree: isoc::octree::OctreeOptions {
             max_level: level,
             min_level: 3.min(level),
@@ -641,7 +641,7 @@ pub fn isoc_mesh(
         smooth,
         domain: None,
     };
-    isoc::mesh::mesher::mesh(&case.surface, &opts, &|_| {})
+    isoc::mesher::mesh(&case.surface, &opts, &|_| {})
 }
 
 /// Fidget's Manifold Dual Contouring at `depth` on the same box: its octree

@@ -1,0 +1,237 @@
+//! Mesh improvement after extraction: edge flips and tangential
+//! relaxation with re-projection (Paiva et al. §4.3, end; issue 11 item 2).
+//!
+//! One pass
+//!
+//! 1. flips edges that improve the worse of their two triangles' aspect
+//!    ratios ([`super::flip`]: connectivity only, topology and orientation
+//!    kept);
+//! 2. moves every vertex whose triangles are not all well shaped (aspect
+//!    ratio 0.85 or more; the right isosceles triangles of flat regions,
+//!    0.866, stay) towards a relaxation target: of the two points
+//!    "average of the neighbours" (uniform Laplacian) and "area-weighted
+//!    average of the star's triangle centroids", the one that gives the
+//!    star the better worst aspect ratio. Only the component of the move in
+//!    the tangent plane of the surface at the vertex is kept, and the point
+//!    is projected back onto `f = 0` ([`crate::roots::project`], within half
+//!    the star's reach).
+//!
+//! A move is **skipped** when it would flip or collapse an incident
+//! triangle (its normal would turn by more than 90° or its area fall below
+//! a fraction of the old), or when the projection finds no zero near the
+//! candidate. Vertices on a boundary, non-manifold or misoriented edge
+//! (open surfaces cut by the domain) never move. After the last pass the
+//! flips run once more. Smoothing never changes the vertex set or the
+//! mesh's topology and orientation; every vertex stays on the surface (it
+//! moves only to a projected point).
+//!
+//! The moves are Gauss–Seidel by colour class: the vertices are greedily
+//! coloured so that no two neighbours share a colour; the candidates of
+//! one class are computed in parallel from the current positions (the
+//! costly part: projection), then accepted one by one, so each class sees
+//! the moves of the classes before it (Jacobi moves, all from the old
+//! positions, converge about half as fast on the stretched triangles of
+//! anisotropic dual cells). Two neighbours never move at once, so they
+//! cannot together flip a triangle that each alone would not.
+//!
+//! Evaluation: the projections are sequential per vertex (each evaluation
+//! depends on the last; the vertices run in parallel). A moved vertex's
+//! tangent plane in the next pass is the one at its relaxation target (the
+//! gradient the projection starts from); after the last pass the normals
+//! of every vertex that moved are one batch of point gradients at the
+//! final positions ([`crate::eval::sample::grads_at`]; the others keep theirs,
+//! already their positions' normals).
+//!
+//! # Limits
+//!
+//! Relaxation does not respect the octree's grading: it pulls vertex
+//! density towards uniform on the star scale, which is what the aspect
+//! ratio rewards but spreads small triangles of a refined region slightly
+//! outward. Pinned boundary vertices keep the triangles along an open
+//! surface's boundary as extracted. Nothing tests a moved triangle against
+//! distant parts of the mesh (two sheets closer than a star's reach).
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::flip::Flips;
+use crate::eval::sample::grads_at;
+use crate::mesh::quality::{aspect, aspect_ratio};
+use crate::mesh::{Mesh, Star};
+use crate::roots::project_along;
+use crate::eval::Evaluator;
+
+/// Whether moving vertex `v` to `p` keeps every incident triangle's
+/// orientation and a reasonable share of its area.
+fn move_is_safe(mesh: &Mesh, star: &Star, v: usize, p: DVec3) -> bool {
+    star.of(v).iter().all(|&ti| {
+        let t = mesh.triangles[ti as usize];
+        let before = mesh.face_normal(t);
+        let [a, b, c] = t.map(|i| {
+            if i as usize == v {
+                p
+            } else {
+                mesh.positions[i as usize]
+            }
+        });
+        let after = (b - a).cross(c - a);
+        after.dot(before) > 0.0 && after.length() > 0.05 * before.length()
+    })
+}
+
+/// A vertex whose triangles all have at least this aspect ratio stays.
+const SETTLED: f64 = 0.85;
+
+/// Where relaxation would take vertex `v` (before projection), and the
+/// largest distance from `v` to its star's corners (`None`: the vertex
+/// stays, its star being empty or already [`SETTLED`] by the triangles'
+/// aspect ratios `aspects`): the better, by the
+/// star's worst aspect ratio, of the tangential components of the moves
+/// towards the neighbours' average (uniform Laplacian) and towards the
+/// area-weighted average of the star's triangle centroids.
+fn target(mesh: &Mesh, star: &Star, aspects: &[f64], v: usize) -> Option<(DVec3, f64)> {
+    let tris = star.of(v);
+    if tris.is_empty() || tris.iter().all(|&ti| aspects[ti as usize] >= SETTLED) {
+        return None;
+    }
+    let p = mesh.positions[v];
+    // The edge opposite `v` in triangle `ti` of the star.
+    let opposite = |ti: u32| {
+        let tri = mesh.triangles[ti as usize];
+        let s = tri.iter().position(|&w| w as usize == v)?;
+        Some((
+            mesh.positions[tri[(s + 1) % 3] as usize],
+            mesh.positions[tri[(s + 2) % 3] as usize],
+        ))
+    };
+    // The star's least aspect ratio with `v` at `q` (`None`: `v` is not a
+    // corner of one of its triangles, a broken star).
+    let worst = |q: DVec3| {
+        tris.iter().try_fold(f64::INFINITY, |w, &ti| {
+            let (b, c) = opposite(ti)?;
+            Some(w.min(aspect(q, b, c)))
+        })
+    };
+    let (mut bary, mut cent, mut weight, mut reach) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0f64);
+    for &ti in tris {
+        let (b, c) = opposite(ti)?;
+        bary += b + c;
+        reach = reach.max((b - p).length()).max((c - p).length());
+        let area = 0.5 * (b - p).cross(c - p).length();
+        cent += (p + b + c) / 3.0 * area;
+        weight += area;
+    }
+    let n = mesh.normals[v];
+    let tangent = |q: DVec3| {
+        let d = q - p;
+        p + d - n * d.dot(n)
+    };
+    let bary = tangent(bary / (2 * tris.len()) as f64);
+    let cent = if weight > 0.0 {
+        tangent(cent / weight)
+    } else {
+        bary
+    };
+    let q = if worst(bary)? >= worst(cent)? {
+        bary
+    } else {
+        cent
+    };
+    Some((q, reach))
+}
+
+/// A greedy colouring of the vertices (no two joined by an edge share a
+/// colour): the vertices of each colour, in order.
+fn colour_classes(mesh: &Mesh, star: &Star) -> Vec<Vec<u32>> {
+    let n = mesh.positions.len();
+    let mut colour = vec![u32::MAX; n];
+    let mut classes: Vec<Vec<u32>> = Vec::new();
+    let mut used: Vec<u32> = Vec::new();
+    for v in 0..n {
+        if star.of(v).is_empty() {
+            continue;
+        }
+        // Colours below 64 as a bit set, the rest (rare) in `used`.
+        let (mut low, mut high) = (0u64, false);
+        used.clear();
+        for &ti in star.of(v) {
+            for &w in &mesh.triangles[ti as usize] {
+                let c = colour[w as usize];
+                if c < 64 {
+                    low |= 1 << c;
+                } else if c != u32::MAX {
+                    used.push(c);
+                    high = true;
+                }
+            }
+        }
+        let c = if low != u64::MAX {
+            low.trailing_ones()
+        } else if !high {
+            64
+        } else {
+            (64..).find(|c| !used.contains(c)).unwrap_or(64)
+        };
+        colour[v] = c;
+        if classes.len() <= c as usize {
+            classes.resize_with(c as usize + 1, Vec::new);
+        }
+        classes[c as usize].push(v as u32);
+    }
+    classes
+}
+
+/// Runs `passes` smoothing passes on the surface `f(·, t) = 0`; returns how
+/// many moves were accepted.
+pub fn smooth<E: Evaluator + ?Sized>(mesh: &mut Mesh, f: &E, t: f64, passes: usize) -> usize {
+    if passes == 0 || mesh.triangles.is_empty() {
+        return 0;
+    }
+    let mut accepted = 0;
+    let mut flips = Flips::new(mesh);
+    let pinned = flips.pinned(mesh);
+    let mut moved = vec![false; mesh.positions.len()];
+    for _ in 0..passes {
+        flips.run(mesh);
+        let star = Star::new(mesh);
+        let mut aspects = flips.aspects().to_vec();
+        let mut moves = 0;
+        for class in colour_classes(mesh, &star) {
+            let candidates: Vec<(u32, DVec3, DVec3)> = class
+                .par_iter()
+                .filter(|&&v| !pinned[v as usize])
+                .filter_map(|&v| {
+                    let (q, reach) = target(mesh, &star, &aspects, v as usize)?;
+                    let (p, g) = project_along(f, t, q, 0.5 * reach)?;
+                    Some((v, p, g))
+                })
+                .collect();
+            for (v, p, g) in candidates {
+                if move_is_safe(mesh, &star, v as usize, p) {
+                    mesh.positions[v as usize] = p;
+                    // The tangent plane for the next pass: the normal at
+                    // the relaxation target, a point within rounding of
+                    // the projected one's normal line.
+                    mesh.normals[v as usize] = g.normalize();
+                    moved[v as usize] = true;
+                    moves += 1;
+                    for &ti in star.of(v as usize) {
+                        aspects[ti as usize] = aspect_ratio(mesh, mesh.triangles[ti as usize]);
+                    }
+                }
+            }
+        }
+        accepted += moves;
+    }
+    flips.run(mesh);
+    // The normals at the final positions of the vertices that moved (the
+    // others' are their positions' already).
+    let moved: Vec<usize> = (0..moved.len()).filter(|&v| moved[v]).collect();
+    let at: Vec<DVec3> = moved.iter().map(|&v| mesh.positions[v]).collect();
+    for (&v, (_, g)) in moved.iter().zip(grads_at(f, t, &at)) {
+        if g.is_finite() && g.length_squared() > 0.0 {
+            mesh.normals[v] = g.normalize();
+        }
+    }
+    accepted
+}

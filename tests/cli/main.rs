@@ -1,0 +1,12 @@
+//! The `isoc` binary (SPEC §2) and the mesh writers (SPEC §3).
+//!
+//! One test binary for the group (each binary links the whole crate);
+//! the shared helpers are in `tests/support`.
+
+#[macro_use]
+#[allow(dead_code, unused_macros)]
+#[path = "../support/mod.rs"]
+mod support;
+
+mod cli;
+mod io;

@@ -1,0 +1,14 @@
+//! The Cranelift kernels against independent oracles and the reference interpreters.
+//!
+//! One test binary for the group (each binary links the whole crate);
+//! the shared helpers are in `tests/support`.
+
+#[macro_use]
+#[allow(dead_code, unused_macros)]
+#[path = "../support/mod.rs"]
+mod support;
+
+mod jit;
+mod jit_vs_eval;
+mod jit_corpus;
+mod pgrad;

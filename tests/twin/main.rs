@@ -1,0 +1,11 @@
+//! Twinned meshes on moving surfaces whose truth is known.
+//!
+//! One test binary for the group (each binary links the whole crate);
+//! the shared helpers are in `tests/support`.
+
+#[macro_use]
+#[allow(dead_code, unused_macros)]
+#[path = "../support/mod.rs"]
+mod support;
+
+mod twin;
