@@ -83,7 +83,7 @@ impl Corner {
 }
 
 /// A dual cell: 8 corners in corner order (see the module doc).
-pub type DualCell = [Corner; 8];
+pub(crate) type DualCell = [Corner; 8];
 
 struct Walker<'a, F: FnMut(DualCell)> {
     nodes: &'a [Node],

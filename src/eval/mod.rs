@@ -121,7 +121,7 @@ pub const WHOLE_GRAD: GradEval = GradEval {
 };
 
 /// Panics unless every input length is `n` (see the module doc).
-pub fn check_len(n: usize, inputs: &[usize]) {
+pub(crate) fn check_len(n: usize, inputs: &[usize]) {
     assert!(
         inputs.iter().all(|&m| m == n),
         "batch lengths differ: inputs {inputs:?}, output {n}"

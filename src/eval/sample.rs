@@ -11,10 +11,10 @@ use rayon::prelude::*;
 use crate::eval::Evaluator;
 
 /// Points per batch call.
-pub const CHUNK: usize = 256;
+pub(crate) const CHUNK: usize = 256;
 
 /// `f(p, t)` at every `p` of `pts`.
-pub fn values_at<E: Evaluator + ?Sized>(f: &E, t: f64, pts: &[DVec3]) -> Vec<f64> {
+pub(crate) fn values_at<E: Evaluator + ?Sized>(f: &E, t: f64, pts: &[DVec3]) -> Vec<f64> {
     let mut out = vec![0.0; pts.len()];
     out.par_chunks_mut(CHUNK)
         .zip(pts.par_chunks(CHUNK))
@@ -26,7 +26,7 @@ pub fn values_at<E: Evaluator + ?Sized>(f: &E, t: f64, pts: &[DVec3]) -> Vec<f64
 }
 
 /// `(f, ∇f)` at `(p, t)` for every `p` of `pts`.
-pub fn grads_at<E: Evaluator + ?Sized>(f: &E, t: f64, pts: &[DVec3]) -> Vec<(f64, DVec3)> {
+pub(crate) fn grads_at<E: Evaluator + ?Sized>(f: &E, t: f64, pts: &[DVec3]) -> Vec<(f64, DVec3)> {
     let mut out = vec![(0.0, [0.0; 3]); pts.len()];
     out.par_chunks_mut(CHUNK)
         .zip(pts.par_chunks(CHUNK))
@@ -41,7 +41,7 @@ pub fn grads_at<E: Evaluator + ?Sized>(f: &E, t: f64, pts: &[DVec3]) -> Vec<(f64
 
 /// `∇f/‖∇f‖` at `(p, t)` for every `p` of `pts` (zero where the gradient
 /// vanishes or is not finite).
-pub fn normals_at<E: Evaluator + ?Sized>(f: &E, t: f64, pts: &[DVec3]) -> Vec<DVec3> {
+pub(crate) fn normals_at<E: Evaluator + ?Sized>(f: &E, t: f64, pts: &[DVec3]) -> Vec<DVec3> {
     grads_at(f, t, pts)
         .into_iter()
         .map(|(_, g)| g.normalize_or_zero())

@@ -21,7 +21,7 @@ use super::round::{self, Dir};
 
 /// `[f(lo), f(hi)]` for a monotone non-decreasing integer-valued `f`
 /// (floor, ceil, round): exact, continuous iff the two ends agree.
-pub fn step_fn(a: Interval, f: fn(f64) -> f64) -> (Interval, bool) {
+pub(crate) fn step_fn(a: Interval, f: fn(f64) -> f64) -> (Interval, bool) {
     if a.is_empty() {
         return (Interval::EMPTY, false);
     }

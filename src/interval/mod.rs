@@ -83,10 +83,10 @@
 //! surfaces* (SIBGRAPI 2006), which uses these enclosures for the octree.
 
 pub mod arith;
-pub mod discrete;
-pub mod elementary;
+pub(crate) mod discrete;
+pub(crate) mod elementary;
 pub mod round;
-pub mod trig;
+pub(crate) mod trig;
 
 /// A closed interval `[lo, hi]` of reals, bounds possibly infinite.
 /// The empty interval is `lo = +∞, hi = -∞`.
@@ -111,7 +111,7 @@ pub const PI_LO: f64 = std::f64::consts::PI;
 /// Upper bound of the f64 enclosure of π.
 pub const PI_HI: f64 = 3.141_592_653_589_793_6;
 /// Lower bound of π/2.
-pub const HALF_PI_LO: f64 = std::f64::consts::FRAC_PI_2;
+pub(crate) const HALF_PI_LO: f64 = std::f64::consts::FRAC_PI_2;
 /// Upper bound of π/2.
 pub const HALF_PI_HI: f64 = 1.570_796_326_794_896_8;
 
@@ -230,7 +230,7 @@ impl DecInterval {
 /// everywhere: `Add`, `Sub`, `Mul`, `Min`, `Max`), called directly: the
 /// same result, without the dispatch on the op.
 #[inline]
-pub fn binary_with(
+pub(crate) fn binary_with(
     a: Interval,
     b: Interval,
     rule: impl Fn(Interval, Interval) -> Interval,
@@ -242,7 +242,7 @@ pub fn binary_with(
 
 /// [`crate::ir::semantics::enclose_unary`] for a total op (`Neg`, `Abs`, `Square`), called directly.
 #[inline]
-pub fn unary_with(a: Interval, rule: impl Fn(Interval) -> Interval) -> (Interval, bool) {
+pub(crate) fn unary_with(a: Interval, rule: impl Fn(Interval) -> Interval) -> (Interval, bool) {
     let (a, ok) = a.normalize();
     (rule(a), ok && !a.is_empty())
 }

@@ -36,7 +36,7 @@
 
 /// Magnitude above which the FMA-based error terms are exact (well above
 /// `2^-969`, where the product/remainder error could underflow).
-pub const SAFE: f64 = 1.0e-270;
+pub(crate) const SAFE: f64 = 1.0e-270;
 
 /// Rounding direction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -252,7 +252,7 @@ pub fn sqrt(x: f64, d: Dir) -> f64 {
 
 /// Bound of a correctly rounded function value `r = RN(f(x))`: one ulp
 /// outward unless the caller knows the value is exact.
-pub fn cr(r: f64, exact: bool, d: Dir) -> f64 {
+pub(crate) fn cr(r: f64, exact: bool, d: Dir) -> f64 {
     // An infinite result is a valid bound on its own side (overflow or an
     // exact infinite limit); on the other side it steps to ±f64::MAX.
     let keep =

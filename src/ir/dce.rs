@@ -5,7 +5,7 @@
 use super::{Program, Value};
 
 /// The live part of `program`.
-pub fn eliminate(program: &Program) -> Program {
+pub(crate) fn eliminate(program: &Program) -> Program {
     let n = program.insts.len();
     let mut live = vec![false; n];
     live[program.output.index()] = true;

@@ -64,7 +64,7 @@
 //! bit for bit.
 
 pub mod builder;
-pub mod dce;
+pub(crate) mod dce;
 pub mod fold;
 pub mod literal;
 pub mod semantics;

@@ -38,7 +38,7 @@ use crate::ir::{BinOp, Op, UnOp, Value};
 /// nearest. The point and point-gradient helpers are called from kernels
 /// in the default mode and are registered directly.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Helper {
+pub(crate) enum Helper {
     /// `fn(code: u32, a: f64) -> f64`: a unary op's point value.
     PtUnary,
     /// `fn(code: u32, a: f64, b: f64) -> f64`.
@@ -139,18 +139,18 @@ mxcsr::trampoline!(gd_unary_rn => gd_unary);
 mxcsr::trampoline!(gd_binary_rn => gd_binary);
 
 /// `pg_op` codes at or above this are binary ops (minus it), below unary.
-pub const PG_BINARY_BASE: u32 = 1 << 16;
+pub(crate) const PG_BINARY_BASE: u32 = 1 << 16;
 /// `gd_binary` op code standing for `powi` (with `n` passed as the second
 /// operand's `F.lo`).
-pub const GD_POWI_CODE: u32 = 1000;
+pub(crate) const GD_POWI_CODE: u32 = 1000;
 
 /// The code of a unary op (its index in [`UnOp::ALL`]).
-pub fn unop_code(op: UnOp) -> u32 {
+pub(crate) fn unop_code(op: UnOp) -> u32 {
     UnOp::ALL.iter().position(|&o| o == op).unwrap_or(0) as u32
 }
 
 /// The code of a binary op (its index in [`BinOp::ALL`]).
-pub fn binop_code(op: BinOp) -> u32 {
+pub(crate) fn binop_code(op: BinOp) -> u32 {
     BinOp::ALL.iter().position(|&o| o == op).unwrap_or(0) as u32
 }
 

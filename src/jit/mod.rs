@@ -120,16 +120,16 @@ use crate::ir::{BinOp, UnOp};
 use helpers::Helper;
 
 /// Single-point kernel.
-pub type PointFn = unsafe extern "C" fn(f64, f64, f64, f64) -> f64;
+pub(crate) type PointFn = unsafe extern "C" fn(f64, f64, f64, f64) -> f64;
 /// Batch point kernel (see the ABI table).
-pub type PointBatchFn =
+pub(crate) type PointBatchFn =
     unsafe extern "C" fn(*const f64, *const f64, *const f64, f64, *mut f64, u64);
 /// Batch interval or gradient kernel.
-pub type BoxBatchFn = unsafe extern "C" fn(*const f64, *mut f64, *mut u8, u64);
+pub(crate) type BoxBatchFn = unsafe extern "C" fn(*const f64, *mut f64, *mut u8, u64);
 
 /// Batch point-gradient kernel (see the ABI table): `out` gets `n` records
 /// of 4 f64.
-pub type PointGradBatchFn =
+pub(crate) type PointGradBatchFn =
     unsafe extern "C" fn(*const f64, *const f64, *const f64, f64, *mut f64, u64);
 
 /// A failure to compile (or to call with mismatched buffers).

@@ -36,7 +36,7 @@
 /// value Rust code expects (the x86-64 System V default).
 pub const MXCSR_DEFAULT: u32 = 0x1F80;
 /// [`MXCSR_DEFAULT`] with rounding toward +∞ (RC = 10).
-pub const MXCSR_UP: u32 = 0x5F80;
+pub(crate) const MXCSR_UP: u32 = 0x5F80;
 
 #[cfg(not(target_arch = "x86_64"))]
 compile_error!(

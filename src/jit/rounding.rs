@@ -48,24 +48,24 @@ use cranelift_codegen::ir::{InstBuilder, MemFlagsData, Value, types};
 use cranelift_frontend::FunctionBuilder;
 
 /// `RU(x + y)`.
-pub fn add_up(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
+pub(crate) fn add_up(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
     b.ins().fadd(x, y)
 }
 
 /// `RU(x · y)`.
-pub fn mul_up(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
+pub(crate) fn mul_up(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
     b.ins().fmul(x, y)
 }
 
 /// `RD(x · y) = −RU((−x) · y)`.
-pub fn mul_down(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
+pub(crate) fn mul_down(b: &mut FunctionBuilder, x: Value, y: Value) -> Value {
     let nx = b.ins().fneg(x);
     let p = b.ins().fmul(nx, y);
     b.ins().fneg(p)
 }
 
 /// `RU(√a)`.
-pub fn sqrt_up(b: &mut FunctionBuilder, a: Value) -> Value {
+pub(crate) fn sqrt_up(b: &mut FunctionBuilder, a: Value) -> Value {
     b.ins().sqrt(a)
 }
 
@@ -73,7 +73,7 @@ pub fn sqrt_up(b: &mut FunctionBuilder, a: Value) -> Value {
 /// predecessor when inexact. `r·r` rounded up exceeds `a` exactly when
 /// `r² > a` (`a` is a float, so `RU(r²) ≤ a` when `r² ≤ a`); the
 /// predecessor of a positive finite float is its bit pattern minus one.
-pub fn sqrt_down(b: &mut FunctionBuilder, a: Value) -> Value {
+pub(crate) fn sqrt_down(b: &mut FunctionBuilder, a: Value) -> Value {
     let r = b.ins().sqrt(a);
     let rr = b.ins().fmul(r, r);
     let inexact = b.ins().fcmp(FloatCC::GreaterThan, rr, a);

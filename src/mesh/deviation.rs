@@ -35,7 +35,7 @@ pub fn max_deviation<E: Evaluator + ?Sized>(mesh: &Mesh, f: &E, t: f64, reach: f
 
 /// Per triangle of `mesh`, the largest distance from its samples to the
 /// surface, as [`max_deviation`] measures it.
-pub fn triangle_deviations<E: Evaluator + ?Sized>(
+pub(crate) fn triangle_deviations<E: Evaluator + ?Sized>(
     mesh: &Mesh,
     f: &E,
     t: f64,

@@ -36,7 +36,7 @@ impl Mesh {
 
 /// Vertex → incident triangles, as compressed rows (one `Vec` of triangle
 /// indices, sliced per vertex).
-pub struct Star {
+pub(crate) struct Star {
     start: Vec<u32>,
     tris: Vec<u32>,
 }

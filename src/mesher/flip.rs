@@ -74,7 +74,7 @@ fn agreement(mesh: &Mesh, t: [u32; 3]) -> f64 {
 /// `twin[h]` is the half-edge running the other way in the neighbouring
 /// triangle, or [`NONE`] unless the undirected edge has exactly two
 /// half-edges and they run in opposite directions.
-pub struct Flips {
+pub(crate) struct Flips {
     twin: Vec<u32>,
     /// Triangles per vertex.
     degree: Vec<u32>,

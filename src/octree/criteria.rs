@@ -54,7 +54,7 @@ fn contains_zero(i: Interval) -> bool {
 /// differentiable on `B`, with `F(c)` the interval value at the centre.
 /// Its width shrinks quadratically with the cell, so on small cells it
 /// proves emptiness where the natural extension `F(B)` cannot.
-pub fn mean_value_form(
+pub(crate) fn mean_value_form(
     fc: Interval,
     grad: [Interval; 3],
     cell: [Interval; 3],
@@ -78,7 +78,7 @@ pub fn mean_value_form(
 /// which is what the topology and geometry tests need. `mean_value`, when
 /// given, is a second enclosure of `F` over the cell (see
 /// [`mean_value_form`]), valid only where `F` is differentiable.
-pub fn judge(
+pub(crate) fn judge(
     g: &GradEval,
     value_defined: bool,
     mean_value: Option<Interval>,
@@ -125,7 +125,7 @@ pub fn judge(
 /// between `gᵢ` and `‖g‖` twice and refine flat regions for nothing.
 /// Infinite when the box contains the zero vector. (Not a guarantee, so
 /// round-to-nearest is fine here.)
-pub fn normal_spread(grad: [Interval; 3]) -> f64 {
+pub(crate) fn normal_spread(grad: [Interval; 3]) -> f64 {
     if grad.iter().all(|c| contains_zero(*c)) {
         return f64::INFINITY;
     }

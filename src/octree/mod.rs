@@ -71,7 +71,7 @@
 //! zero among them, shows that it holds surface (intermediate values), and
 //! the search is skipped.
 
-pub mod criteria;
+pub(crate) mod criteria;
 pub mod field;
 
 use glam::DVec3;
@@ -173,11 +173,11 @@ pub struct Octree {
 }
 
 /// Deepest level allowed: integer positions must fit in `u32` with room.
-pub const MAX_LEVEL: u8 = 20;
+pub(crate) const MAX_LEVEL: u8 = 20;
 
 /// Extra levels below an ambiguous leaf searched for a proof that it is
 /// empty (see [`Octree::clear_false_ambiguity`]).
-pub const PROOF_DEPTH: u8 = 3;
+pub(crate) const PROOF_DEPTH: u8 = 3;
 
 fn cell_input(a: DVec3, b: DVec3, t: f64) -> [Interval; 4] {
     [

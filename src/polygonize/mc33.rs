@@ -171,7 +171,7 @@ const fn face_edges() -> [[u8; 4]; 6] {
 
 /// Edges of each face: edge `k` joins `FACE_CORNERS[f][k]` and
 /// `FACE_CORNERS[f][(k + 1) % 4]`.
-pub const FACE_EDGES: [[u8; 4]; 6] = face_edges();
+pub(crate) const FACE_EDGES: [[u8; 4]; 6] = face_edges();
 
 /// Maximum number of vertices of a cell mesh.
 pub const MAX_VERTS: usize = 24;
@@ -201,7 +201,7 @@ impl Vertex {
 }
 
 /// Position of corner `c` in cell coordinates.
-pub fn corner_position(c: u8) -> DVec3 {
+pub(crate) fn corner_position(c: u8) -> DVec3 {
     DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, ((c >> 2) & 1) as f64)
 }
 

@@ -30,13 +30,13 @@ fn grad_at<E: Evaluator + ?Sized>(f: &E, t: f64, p: DVec3) -> (f64, DVec3) {
 
 /// A point on the surface and ∇f there.
 #[derive(Clone, Copy, Debug)]
-pub struct OnSurface {
+pub(crate) struct OnSurface {
     pub pos: DVec3,
     pub grad: DVec3,
 }
 
 /// `p0` moved onto `f(·, t) = 0`; see the module doc.
-pub fn newton<E: Evaluator + ?Sized>(
+pub(crate) fn newton<E: Evaluator + ?Sized>(
     f: &E,
     t: f64,
     p0: DVec3,

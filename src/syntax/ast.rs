@@ -23,7 +23,7 @@ use std::fmt::Write;
 use std::ops::Range;
 
 /// Byte range in the source.
-pub type Span = Range<usize>;
+pub(crate) type Span = Range<usize>;
 
 /// Index of an expression in [`Ast::exprs`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]

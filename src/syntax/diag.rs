@@ -2,7 +2,7 @@
 //!
 //! # Contract
 //!
-//! [`render`] turns one [`Diagnostic`] into
+//! [`render_all`] turns each [`Diagnostic`] into
 //!
 //! ```text
 //! FILE:LINE:COL: error: MESSAGE
@@ -79,18 +79,13 @@ impl std::fmt::Display for SourceError {
 impl std::error::Error for SourceError {}
 
 /// Renders every diagnostic of `diags` (see the module doc), in order.
-pub fn render_all(file: &str, source: &str, diags: &[Diagnostic]) -> String {
+pub(crate) fn render_all(file: &str, source: &str, diags: &[Diagnostic]) -> String {
     let sf = SimpleFile::new(file, source);
     let mut out = String::new();
     for d in diags {
         render_one(&sf, file, source, d, &mut out);
     }
     out
-}
-
-/// Renders `d` (see the module doc) and appends it to `out`.
-pub fn render(file: &str, source: &str, d: &Diagnostic, out: &mut String) {
-    render_one(&SimpleFile::new(file, source), file, source, d, out);
 }
 
 fn render_one(
@@ -163,7 +158,7 @@ fn clamp(source: &str, pos: usize) -> usize {
 }
 
 /// Levenshtein distance between two short strings (by chars).
-pub fn edit_distance(a: &str, b: &str) -> usize {
+pub(crate) fn edit_distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();
     let mut prev: Vec<usize> = (0..=b.len()).collect();
     let mut cur = vec![0; b.len() + 1];

@@ -23,7 +23,7 @@ use std::fmt;
 #[logos(skip r"[ \t\r\n\f]+")]
 // Comments run to the end of the line: the greedy `[^\n]*` is intended.
 #[logos(skip(r"(#|//)[^\n]*", allow_greedy = true))]
-pub enum Tok<'s> {
+pub(crate) enum Tok<'s> {
     #[token("domain")]
     Domain,
     #[token("let")]
@@ -97,11 +97,11 @@ impl fmt::Display for Tok<'_> {
 }
 
 /// A token with its byte span, as lalrpop wants it.
-pub type Spanned<'s> = (usize, Tok<'s>, usize);
+pub(crate) type Spanned<'s> = (usize, Tok<'s>, usize);
 
 /// Splits `source` into tokens. Runs of characters that start no token
 /// become one [`Tok::Error`] each and one diagnostic each.
-pub fn lex(source: &str) -> (Vec<Spanned<'_>>, Vec<Diagnostic>) {
+pub(crate) fn lex(source: &str) -> (Vec<Spanned<'_>>, Vec<Diagnostic>) {
     let mut toks: Vec<Spanned<'_>> = Vec::new();
     let mut diags = Vec::new();
     for (res, span) in Tok::lexer(source).spanned() {

@@ -29,10 +29,10 @@ use std::collections::HashMap;
 /// Maximum number of function-body nodes visited while lowering one program
 /// (inlining can multiply the size of the source exponentially; nodes outside
 /// function bodies are lowered once each and are not counted).
-pub const WORK_LIMIT: usize = 200_000;
+pub(crate) const WORK_LIMIT: usize = 200_000;
 
 /// A lowering target.
-pub trait Sink {
+pub(crate) trait Sink {
     type V: Copy;
     /// A key identifying a value, for memoising function calls.
     fn key(&self, v: Self::V) -> u64;
@@ -53,7 +53,7 @@ pub fn literal(text: &str) -> Const {
 }
 
 /// `pi` as a constant: its f64 and an enclosure of the real π.
-pub fn pi_const() -> Const {
+pub(crate) fn pi_const() -> Const {
     Const::pi()
 }
 
@@ -148,7 +148,7 @@ impl Sink for F64 {
 
 /// Evaluates a constant expression (resolved in a constant context: no
 /// coordinates, lets or fns) in f64. `params` are the param values so far.
-pub fn eval_const(ast: &Ast, res: &[Res], e: ExprId, params: &[f64]) -> f64 {
+pub(crate) fn eval_const(ast: &Ast, res: &[Res], e: ExprId, params: &[f64]) -> f64 {
     let t = Tables {
         res,
         lets: &[],
@@ -163,10 +163,10 @@ pub fn eval_const(ast: &Ast, res: &[Res], e: ExprId, params: &[f64]) -> f64 {
 /// Why lowering failed: inlining exceeded [`WORK_LIMIT`] (or, for an
 /// unchecked AST, there is no surface or a name was left unresolved).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct TooLarge;
+pub(crate) struct TooLarge;
 
 /// The program of the resolved surface. See [`TooLarge`].
-pub fn lower_surface(ast: &Ast, r: &Resolved) -> Result<Program, TooLarge> {
+pub(crate) fn lower_surface(ast: &Ast, r: &Resolved) -> Result<Program, TooLarge> {
     let (lhs, rhs, _) = r.surface.clone().ok_or(TooLarge)?;
     let params: Vec<f64> = r.params.iter().map(|p| p.1).collect();
     let fns: Vec<ExprId> = r.fns.iter().map(|f| f.body).collect();

@@ -23,9 +23,9 @@
 //! - [`vm`]: the `.vm` reader (SPEC §1.1).
 
 pub mod ast;
-pub mod diag;
+pub(crate) mod diag;
 pub mod error;
-pub mod lexer;
+pub(crate) mod lexer;
 pub mod lower;
 pub mod names;
 pub mod parser;
@@ -145,7 +145,7 @@ pub(crate) fn check_domain(opts: &CompileOptions) -> Result<Option<Bounds>, Fron
 
 /// The front end for `file`, chosen by its extension: `.vm` → [`vm`]
 /// (Fidget's text-SSA models), anything else → `.iso` ([`front_end`]).
-pub fn front_end_for(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowered, FrontError> {
+pub(crate) fn front_end_for(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowered, FrontError> {
     if vm::is_vm_file(file) {
         vm::front_end(source, file, opts)
     } else {

@@ -18,7 +18,7 @@ pub enum Builtin {
 }
 
 /// All built-in functions by name.
-pub const BUILTINS: [(&str, Builtin); 14] = [
+pub(crate) const BUILTINS: [(&str, Builtin); 14] = [
     ("sqrt", Builtin::Unary(UnOp::Sqrt)),
     ("abs", Builtin::Unary(UnOp::Abs)),
     ("sin", Builtin::Unary(UnOp::Sin)),

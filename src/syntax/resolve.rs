@@ -722,7 +722,7 @@ fn given(n: usize) -> String {
 }
 
 /// All node ids of the subtree under `root` (pre-order), without recursion.
-pub fn subtree(ast: &Ast, root: ExprId) -> Vec<ExprId> {
+pub(crate) fn subtree(ast: &Ast, root: ExprId) -> Vec<ExprId> {
     let mut out = Vec::new();
     let mut stack = vec![root];
     while let Some(id) = stack.pop() {

@@ -52,7 +52,7 @@ use super::CompileOptions;
 use crate::geometry::Bounds;
 
 /// The domain of a `.vm` model when `--domain` is not given.
-pub const DEFAULT_DOMAIN: Bounds = Bounds {
+pub(crate) const DEFAULT_DOMAIN: Bounds = Bounds {
     lo: [-1.0; 3],
     hi: [1.0; 3],
 };
@@ -114,7 +114,7 @@ fn arity(k: Kind, name: &str) -> usize {
 }
 
 /// True when `file` names a `.vm` model (by its extension, any case).
-pub fn is_vm_file(file: &str) -> bool {
+pub(crate) fn is_vm_file(file: &str) -> bool {
     std::path::Path::new(file)
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("vm"))

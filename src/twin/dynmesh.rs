@@ -19,7 +19,7 @@ use glam::DVec3;
 use crate::mesh::Mesh;
 
 /// An undirected edge, smaller index first.
-pub type EdgeKey = (u32, u32);
+pub(crate) type EdgeKey = (u32, u32);
 
 /// The key of edge `a–b`.
 pub fn key(a: u32, b: u32) -> EdgeKey {

@@ -40,7 +40,7 @@ use super::dynmesh::DynMesh;
 
 /// The shared element: rest shape and stiffness. See the module doc.
 #[derive(Clone, Debug)]
-pub struct Stiffness {
+pub(crate) struct Stiffness {
     pub k: [[f64; 6]; 6],
     /// Rest coordinates `(u₀, v₀, w₀)` in the element frame.
     pub rest: [DVec2; 3],
@@ -108,7 +108,7 @@ pub fn inverted(mesh: &DynMesh, t: [u32; 3]) -> bool {
 
 /// One element's frame for this step.
 #[derive(Clone, Copy, Debug)]
-pub struct Frame {
+pub(crate) struct Frame {
     /// The element's vertices in frame order (`u, v, w`).
     pub verts: [u32; 3],
     pub x: DVec3,
@@ -118,7 +118,7 @@ pub struct Frame {
 }
 
 /// The frames of all live elements for one step.
-pub struct Frames {
+pub(crate) struct Frames {
     pub frames: Vec<Frame>,
 }
 

@@ -47,7 +47,7 @@ pub struct RefineStats {
 
 /// The geometric mesh never exceeds this many times the mechanical mesh's
 /// triangles.
-pub const TRIANGLE_BUDGET: usize = 64;
+pub(crate) const TRIANGLE_BUDGET: usize = 64;
 
 /// Refines `mech` (whose normals are the unit gradients at its vertices)
 /// on the surface `f(·, t) = 0`; see the module doc.

@@ -53,9 +53,9 @@
 //! Newton walks ([`crate::roots::walk`]), one per vertex, run in parallel; remeshing
 //! evaluates one point at a time (see [`remesh`]).
 
-pub mod dynmesh;
+pub(crate) mod dynmesh;
 pub mod error;
-pub mod fem;
+pub(crate) mod fem;
 pub mod geometric;
 pub mod remesh;
 pub mod watch;
@@ -757,7 +757,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
 }
 
 /// Most refinement passes accepted.
-pub const MAX_PASSES: usize = 12;
+pub(crate) const MAX_PASSES: usize = 12;
 
 /// Applications of eq. 4 per step (each from the planes of the last).
 const SHARP_ITERATIONS: usize = 5;
