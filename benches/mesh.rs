@@ -9,8 +9,8 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use isoc::mesher::{self, MeshOptions};
 use isoc::mesher::smooth;
+use isoc::mesher::{self, MeshOptions};
 use isoc::octree::{Octree, OctreeOptions};
 use isoc::polygonize::extract::{self, CornerValues};
 use isoc::{CompileOptions, Surface};

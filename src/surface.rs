@@ -8,9 +8,9 @@
 
 use std::sync::Arc;
 
-use crate::geometry::Bounds;
 use crate::eval::Evaluator;
 use crate::eval::grad::GradEval;
+use crate::geometry::Bounds;
 use crate::interval::{DecInterval, Interval};
 use crate::ir::Program;
 use crate::jit::{JitError, Kernels};
@@ -115,14 +115,22 @@ impl Surface {
     /// Compiles source text. `file` names the source in diagnostics and
     /// chooses the language: a `.vm` file is a Fidget text-SSA model
     /// ([`crate::syntax::vm`]), anything else `.iso`.
-    pub fn compile(source: &str, file: &str, opts: &CompileOptions) -> Result<Surface, CompileError> {
+    pub fn compile(
+        source: &str,
+        file: &str,
+        opts: &CompileOptions,
+    ) -> Result<Surface, CompileError> {
         let lowered = syntax::front_end_for(source, file, opts)?;
         Surface::from_program(file, lowered.program, lowered.domain, lowered.params)
     }
 
     /// Compiles a Fidget `.vm` model whatever `file` is called (see
     /// [`crate::syntax::vm`]).
-    pub fn compile_vm(source: &str, file: &str, opts: &CompileOptions) -> Result<Surface, CompileError> {
+    pub fn compile_vm(
+        source: &str,
+        file: &str,
+        opts: &CompileOptions,
+    ) -> Result<Surface, CompileError> {
         let lowered = syntax::vm::front_end(source, file, opts)?;
         Surface::from_program(file, lowered.program, lowered.domain, lowered.params)
     }
@@ -137,8 +145,7 @@ impl Surface {
     ) -> Result<Surface, CompileError> {
         // Nothing is compiled yet: each kernel kind on first use (or by
         // `Kernels::prepare`).
-        let kernels =
-            Kernels::lazy(&program, &crate::jit::JitOptions::default())?;
+        let kernels = Kernels::lazy(&program, &crate::jit::JitOptions::default())?;
         Ok(Surface {
             file: file.to_string(),
             program,

@@ -7,8 +7,8 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use super::{SourceArgs, compile_file, io_err, write};
 use super::error::Error;
+use super::{SourceArgs, compile_file, io_err, write};
 use isoc::twin::{FrameReport, Tracker, TwinOptions};
 
 /// Options of `isoc animate`.
@@ -146,5 +146,8 @@ pub(super) fn run(
 }
 
 fn write_frame(dir: &Path, kind: &str, k: u32, mesh: &isoc::mesh::Mesh) -> Result<(), Error> {
-    Ok(isoc::io::write_file(mesh, &dir.join(format!("{kind}_{k:04}.ply")))?)
+    Ok(isoc::io::write_file(
+        mesh,
+        &dir.join(format!("{kind}_{k:04}.ply")),
+    )?)
 }

@@ -40,7 +40,9 @@ use crate::octree::{Node, Octree};
 /// the high face.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Corner {
+    /// Index of the leaf in [`Octree::nodes`].
     pub node: u32,
+    /// Mirroring across ∂Ω, two bits per axis (see above); 0 for a real leaf.
     pub mirror: u8,
 }
 

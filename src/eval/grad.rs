@@ -47,12 +47,12 @@
 use crate::interval::{self, DecInterval, Interval};
 use crate::ir::{BinOp, Const, Op, Program, UnOp};
 
-
-
 /// `(F, ∂F/∂x, ∂F/∂y, ∂F/∂z)` enclosed over a box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GradEval {
+    /// An enclosure of `F` over the box.
     pub value: Interval,
+    /// Enclosures of `(∂F/∂x, ∂F/∂y, ∂F/∂z)` over the box.
     pub grad: [Interval; 3],
     /// False when some op was not defined and continuous (or not
     /// differentiable) somewhere on the box.
@@ -67,7 +67,9 @@ pub trait Num: Copy {
     fn konst(c: &Const) -> Self;
     /// The integer `n` (enclosed when not exactly representable).
     fn int(n: i64) -> Self;
+    /// The unary op `op` applied to `a` (point value or enclosure).
     fn un(op: UnOp, a: Self) -> Self;
+    /// The binary op `op` applied to `a` and `b` (point value or enclosure).
     fn bin(op: BinOp, a: Self, b: Self) -> Self;
     /// `bin(Add, a, b)`, `bin(Sub, a, b)`, `bin(Mul, a, b)`, `un(Neg, a)`:
     /// the derivative rules' arithmetic, which an implementation may
@@ -75,15 +77,19 @@ pub trait Num: Copy {
     fn add(a: Self, b: Self) -> Self {
         Self::bin(BinOp::Add, a, b)
     }
+    /// `bin(Sub, a, b)` (see [`Num::add`]).
     fn sub(a: Self, b: Self) -> Self {
         Self::bin(BinOp::Sub, a, b)
     }
+    /// `bin(Mul, a, b)` (see [`Num::add`]).
     fn mul(a: Self, b: Self) -> Self {
         Self::bin(BinOp::Mul, a, b)
     }
+    /// `un(Neg, a)` (see [`Num::add`]).
     fn neg(a: Self) -> Self {
         Self::un(UnOp::Neg, a)
     }
+    /// `a` to the integer power `n` (the IR's `powi`).
     fn powi(a: Self, n: i64) -> Self;
     /// A value with no meaning (`NaN`, or entire and undefined).
     fn unknown() -> Self;
@@ -198,7 +204,10 @@ impl Num for DecInterval {
         dec(crate::ir::semantics::enclose_unary(op, a.iv), a.defined)
     }
     fn bin(op: BinOp, a: Self, b: Self) -> Self {
-        dec(crate::ir::semantics::enclose_binary(op, a.iv, b.iv), a.defined && b.defined)
+        dec(
+            crate::ir::semantics::enclose_binary(op, a.iv, b.iv),
+            a.defined && b.defined,
+        )
     }
     #[inline]
     fn add(a: Self, b: Self) -> Self {
@@ -283,7 +292,9 @@ impl Num for DecInterval {
 /// A value and its three partial derivatives.
 #[derive(Clone, Copy, Debug)]
 pub struct Dual<N> {
+    /// The value.
     pub v: N,
+    /// The partial derivatives with respect to x, y and z.
     pub d: [N; 3],
 }
 

@@ -39,7 +39,7 @@
 //!   defined but not differentiable: the function is the winner on the
 //!   whole box, so the pruned flag is the right one.
 //!
-//! A property test (`tests/prune.rs`) checks all three on random CSG
+//! A property test (`tests/eval/eval.rs`) checks all three on random CSG
 //! programs and random boxes.
 //!
 //! # Limits

@@ -92,7 +92,9 @@ pub(crate) mod trig;
 /// The empty interval is `lo = +∞, hi = -∞`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Interval {
+    /// Lower bound (`+∞` for the empty interval).
     pub lo: f64,
+    /// Upper bound (`-∞` for the empty interval).
     pub hi: f64,
 }
 
@@ -102,7 +104,9 @@ pub struct Interval {
 /// the box where the function is defined (possibly empty).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DecInterval {
+    /// Enclosure of the range where the function is defined.
     pub iv: Interval,
+    /// The function is defined and continuous on the whole input box.
     pub defined: bool,
 }
 
@@ -246,4 +250,3 @@ pub(crate) fn unary_with(a: Interval, rule: impl Fn(Interval) -> Interval) -> (I
     let (a, ok) = a.normalize();
     (rule(a), ok && !a.is_empty())
 }
-

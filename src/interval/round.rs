@@ -41,7 +41,9 @@ pub(crate) const SAFE: f64 = 1.0e-270;
 /// Rounding direction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dir {
+    /// Toward `-∞` (for lower bounds).
     Down,
+    /// Toward `+∞` (for upper bounds).
     Up,
 }
 

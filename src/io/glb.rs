@@ -19,6 +19,7 @@ fn pad4(v: &mut Vec<u8>, byte: u8) {
     }
 }
 
+/// Writes `mesh` to `out` as one GLB file: header, JSON chunk and BIN chunk.
 pub fn write(mesh: &Mesh, out: &mut dyn Write) -> std::io::Result<()> {
     let nv = mesh.positions.len();
     let mut bin = Vec::with_capacity(nv * 28 + mesh.triangles.len() * 12);

@@ -46,9 +46,13 @@ impl std::error::Error for WriteError {}
 /// Output formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
+    /// Binary PLY with normals and ambiguity colours (`.ply`, [`ply`]).
     Ply,
+    /// Wavefront OBJ (`.obj`, [`obj`]).
     Obj,
+    /// Binary STL (`.stl`, [`stl`]).
     Stl,
+    /// Binary glTF 2.0 (`.glb`, [`glb`]).
     Glb,
 }
 

@@ -4,6 +4,8 @@ use std::io::Write;
 
 use crate::mesh::Mesh;
 
+/// Writes `mesh` to `out` as OBJ text (without `vn` references in the faces
+/// when the mesh has no normal per vertex).
 pub fn write(mesh: &Mesh, out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(out, "# isoc")?;
     for p in &mesh.positions {

@@ -7,6 +7,7 @@ use std::io::Write;
 
 use crate::mesh::Mesh;
 
+/// Writes `mesh` to `out` as a binary little-endian PLY file.
 pub fn write(mesh: &Mesh, out: &mut dyn Write) -> std::io::Result<()> {
     write!(
         out,

@@ -5,6 +5,8 @@ use std::io::Write;
 
 use crate::mesh::Mesh;
 
+/// Writes `mesh` to `out` as binary STL, with facet normals computed from
+/// the triangles' winding.
 pub fn write(mesh: &Mesh, out: &mut dyn Write) -> std::io::Result<()> {
     let mut header = [0u8; 80];
     header[..4].copy_from_slice(b"isoc");

@@ -42,6 +42,7 @@ pub struct Builder {
 }
 
 impl Builder {
+    /// An empty builder.
     pub fn new() -> Self {
         Builder::default()
     }

@@ -9,8 +9,10 @@
 //! [`super::semantics`], which [`crate::eval`] uses too, so there is one
 //! definition of each op.
 
+use super::semantics::{
+    enclose_binary, enclose_powi, enclose_unary, point_binary, point_powi, point_unary,
+};
 use super::{BinOp, Const, UnOp};
-use super::semantics::{enclose_binary, enclose_powi, enclose_unary, point_binary, point_powi, point_unary};
 use crate::interval::Interval;
 
 fn enclosure(c: Const) -> Interval {

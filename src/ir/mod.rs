@@ -95,9 +95,13 @@ impl fmt::Display for Value {
 /// The four inputs of every program.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Var {
+    /// The `x` coordinate (input 0).
     X,
+    /// The `y` coordinate (input 1).
     Y,
+    /// The `z` coordinate (input 2).
     Z,
+    /// The time parameter `t` (input 3).
     T,
 }
 
@@ -123,8 +127,11 @@ impl Var {
 /// `lo > hi`) and `defined` is false.
 #[derive(Clone, Copy, Debug)]
 pub struct Const {
+    /// The f64 the point evaluators use (NaN when not defined).
     pub value: f64,
+    /// Lower bound of the enclosure of the real value.
     pub lo: f64,
+    /// Upper bound of the enclosure of the real value.
     pub hi: f64,
     /// False when the constant's expression was not defined (e.g. `log(0)`,
     /// `1/0`); the interval evaluators propagate the flag.
@@ -173,17 +180,29 @@ impl std::hash::Hash for Const {
 /// Operations of one argument.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum UnOp {
+    /// `-a`.
     Neg,
+    /// `|a|`.
     Abs,
+    /// Square root (NaN for `a < 0`).
     Sqrt,
+    /// `a * a`.
     Square,
+    /// `e^a`.
     Exp,
+    /// Natural logarithm (NaN for `a <= 0`).
     Log,
+    /// Sine (radians).
     Sin,
+    /// Cosine (radians).
     Cos,
+    /// Tangent (radians).
     Tan,
+    /// Arcsine, in `[-π/2, π/2]` (NaN outside `[-1, 1]`).
     Asin,
+    /// Arccosine, in `[0, π]` (NaN outside `[-1, 1]`).
     Acos,
+    /// Arctangent, in `(-π/2, π/2)`.
     Atan,
     /// Largest integer `<= a`.
     Floor,
@@ -198,11 +217,17 @@ pub enum UnOp {
 /// Operations of two arguments.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum BinOp {
+    /// `a + b`.
     Add,
+    /// `a - b`.
     Sub,
+    /// `a * b`.
     Mul,
+    /// `a / b` (NaN for `b = 0`).
     Div,
+    /// The smaller of `a` and `b` (NaN if either is NaN; `-0 < +0`).
     Min,
+    /// The larger of `a` and `b` (NaN if either is NaN; `-0 < +0`).
     Max,
     /// `atan2(y, x)`: first operand is `y`.
     Atan2,
@@ -220,6 +245,7 @@ pub enum BinOp {
 }
 
 impl UnOp {
+    /// Every unary op, in declaration order.
     pub const ALL: [UnOp; 16] = [
         UnOp::Neg,
         UnOp::Abs,
@@ -263,6 +289,7 @@ impl UnOp {
 }
 
 impl BinOp {
+    /// Every binary op, in declaration order.
     pub const ALL: [BinOp; 12] = [
         BinOp::Add,
         BinOp::Sub,
@@ -306,9 +333,13 @@ impl BinOp {
 /// One instruction: it defines the value whose index is its position.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Op {
+    /// An input variable.
     Var(Var),
+    /// A constant.
     Const(Const),
+    /// A one-argument op applied to a value.
     Unary(UnOp, Value),
+    /// A two-argument op applied to two values, in operand order.
     Binary(BinOp, Value, Value),
     /// `a^n` for an integer `n` of any sign; `a^0 = 1` for every `a`, and
     /// `a^-n = 1/a^n` (so NaN at `a = 0`).
@@ -340,7 +371,9 @@ impl Op {
 /// A straight-line SSA program with one output. See the module doc.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Program {
+    /// The instructions; instruction `i` defines value `vi`.
     pub insts: Vec<Op>,
+    /// The value whose zero set is the surface.
     pub output: Value,
 }
 

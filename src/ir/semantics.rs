@@ -177,7 +177,11 @@ pub fn point_powi(a: f64, n: i64) -> f64 {
         base = base * base;
     }
     let p = acc.unwrap_or(1.0);
-    if n < 0 { point_binary(BinOp::Div, 1.0, p) } else { p }
+    if n < 0 {
+        point_binary(BinOp::Div, 1.0, p)
+    } else {
+        p
+    }
 }
 
 /// Enclosure of `op(a)` for every `x ∈ a` where `op` is defined, and whether

@@ -43,7 +43,9 @@ impl fmt::Display for Program {
 /// A text-form parse error: 1-based line and a message.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ParseError {
+    /// The 1-based line of the error.
     pub line: usize,
+    /// What is wrong.
     pub message: String,
 }
 

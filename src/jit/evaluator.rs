@@ -1,7 +1,7 @@
 //! The JIT kernels as an [`Evaluator`]: single calls go to the single
 //! entry points, batch calls to the batch entry points (one kernel call per
 //! batch), whose results are bit for bit the single ones (tested by the
-//! shared suite in `tests/jit_vs_eval.rs`).
+//! shared suite in `tests/jit/jit_vs_eval.rs`).
 //!
 //! Should the point-gradient kernels fail to compile, `point_grad` and
 //! `point_grad_batch` fall back to the reference evaluator

@@ -145,7 +145,12 @@ pub enum JitError {
     BufferLength(String),
     /// The program is longer than [`JitOptions::jit_limit`]: it is
     /// interpreted, not compiled.
-    TooLarge { len: usize, limit: usize },
+    TooLarge {
+        /// Instructions in the program.
+        len: usize,
+        /// The limit it exceeds.
+        limit: usize,
+    },
 }
 
 impl std::fmt::Display for JitError {
@@ -168,8 +173,11 @@ impl std::error::Error for JitError {}
 /// The kernel kinds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kind {
+    /// f64 value.
     Point,
+    /// Interval enclosure of the value, with the "defined" flag.
     Interval,
+    /// Interval enclosures of value and gradient, with the "defined" flag.
     Grad,
     /// f64 value and gradient ([`pgrad`]); not in [`Kind::ALL`].
     PointGrad,
@@ -181,6 +189,8 @@ impl Kind {
     /// Every kind, as `mesh` needs them.
     pub const EVERY: [Kind; 4] = [Kind::Point, Kind::Interval, Kind::Grad, Kind::PointGrad];
 
+    /// The kind's name, as its single entry point is called (`"point"`,
+    /// `"interval"`, `"grad"`, `"point_grad"`).
     pub fn name(self) -> &'static str {
         match self {
             Kind::Point => "point",
@@ -231,7 +241,9 @@ impl Default for JitOptions {
 /// What was compiled for one entry point.
 #[derive(Clone, Debug)]
 pub struct KernelInfo {
+    /// The kernel kind.
     pub kind: Kind,
+    /// Whether this is the batch entry point (else the single one).
     pub batch: bool,
     /// `"point"`, `"point_batch"`, `"interval"`, …
     pub name: &'static str,
@@ -438,4 +450,3 @@ fn batch_loop(env: &mut Env, n: Value, body: impl FnOnce(&mut Env, Value)) {
     env.b.ins().jump(header, &[next.into()]);
     env.b.switch_to_block(exit);
 }
-

@@ -20,8 +20,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::Mesh;
-use crate::roots::project;
 use crate::eval::Evaluator;
+use crate::roots::project;
 
 /// The largest distance from the samples of `mesh` (centroids and edge
 /// midpoints) to the surface `f(·, t) = 0`, each found by projection no

@@ -19,9 +19,15 @@ use glam::DVec3;
 /// An indexed triangle mesh. See the module doc.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
+    /// Vertex positions (domain coordinates).
     pub positions: Vec<DVec3>,
+    /// Per vertex, the unit normal (direction of ∇f).
     pub normals: Vec<DVec3>,
+    /// Per vertex, whether it lies in an ambiguous region (topology not
+    /// guaranteed).
     pub ambiguous: Vec<bool>,
+    /// Triangles as indices into `positions`, counter-clockwise seen from
+    /// `f > 0`.
     pub triangles: Vec<[u32; 3]>,
 }
 

@@ -16,8 +16,11 @@ use super::{Mesh, Star};
 /// What [`analyze`] finds.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Topology {
+    /// Vertices used by at least one triangle (`V`).
     pub vertices: usize,
+    /// Distinct undirected edges (`E`).
     pub edges: usize,
+    /// Triangles (`F`).
     pub faces: usize,
     /// Components connected through triangles (isolated vertices ignored).
     pub components: usize,
@@ -26,6 +29,7 @@ pub struct Topology {
     /// Genus of each component, largest component first; `None` for a
     /// component that is not closed (its genus is not defined by χ alone).
     pub genus: Vec<Option<i64>>,
+    /// Edges with exactly one triangle.
     pub boundary_edges: usize,
     /// Edges with three or more triangles.
     pub nonmanifold_edges: usize,
@@ -33,6 +37,7 @@ pub struct Topology {
     pub misoriented_edges: usize,
     /// Vertices whose triangles form more than one fan.
     pub nonmanifold_vertices: usize,
+    /// Closed, consistently oriented 2-manifold (see the module doc).
     pub watertight: bool,
 }
 

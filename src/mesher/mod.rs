@@ -15,11 +15,11 @@ use glam::DVec3;
 pub mod flip;
 pub mod smooth;
 
-use crate::mesh::{Mesh, quality, topology};
 use crate::eval::Evaluator;
+use crate::geometry::Bounds;
+use crate::mesh::{Mesh, quality, topology};
 use crate::octree::{Octree, OctreeOptions, OctreeStats, Refine};
 use crate::polygonize::extract;
-use crate::geometry::Bounds;
 use crate::surface::Surface;
 
 /// Options of [`mesh`] (SPEC §2 `isoc mesh`).
@@ -57,6 +57,7 @@ use crate::surface::Surface;
 /// ```
 #[derive(Clone, Copy, Debug)]
 pub struct MeshOptions {
+    /// Options of the octree: levels, criteria, topology test, time.
     pub octree: OctreeOptions,
     /// Smoothing passes (`--smooth`): edge flips and tangential relaxation
     /// ([`smooth::smooth`]).
@@ -78,38 +79,61 @@ impl Default for MeshOptions {
 /// Milliseconds spent per stage.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Timings {
+    /// Milliseconds in the octree stage.
     pub octree: f64,
+    /// Milliseconds in the dual grid stage (corner values, active cells).
     pub dual: f64,
+    /// Milliseconds in dual marching cubes, vertex bisection included.
     pub polygonize: f64,
+    /// Milliseconds in smoothing.
     pub smooth: f64,
+    /// Milliseconds for the whole run.
     pub total: f64,
 }
 
 /// What a mesh run found (the fields of SPEC §2 `--stats json`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshReport {
+    /// Triangles of the mesh.
     pub triangles: usize,
+    /// Vertices of the mesh.
     pub vertices: usize,
+    /// Share of triangles with aspect ratio > 0.8.
     pub aspect_good: f64,
+    /// Components, genera and manifold checks, computed from the mesh.
     pub topology: topology::Topology,
     /// Leaves left ambiguous (topology criterion still failing at the
     /// maximal level, or `F` not defined everywhere on the cell).
     pub ambiguous_cells: usize,
     /// True only when no leaf is ambiguous.
     pub guaranteed: bool,
+    /// Counts of the octree's nodes and leaves.
     pub octree: OctreeStats,
+    /// Dual cells visited.
     pub dual_cells: usize,
+    /// Dual cells whose corner values change sign (the ones polygonised).
     pub active_cells: usize,
+    /// Vertex moves accepted by smoothing, over all passes.
     pub smoothing_moves: usize,
+    /// Time spent per stage.
     pub timings: Timings,
 }
 
 /// Stage names reported to the progress callback.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Stage {
-    Octree { level: u8, cells: usize },
+    /// An octree level is done.
+    Octree {
+        /// The level just finished.
+        level: u8,
+        /// Cells evaluated so far.
+        cells: usize,
+    },
+    /// The dual grid stage starts.
     Dual,
+    /// Dual marching cubes starts.
     Polygonize,
+    /// Smoothing starts.
     Smooth,
 }
 

@@ -55,11 +55,11 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::flip::Flips;
+use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::mesh::quality::{aspect, aspect_ratio};
 use crate::mesh::{Mesh, Star};
 use crate::roots::project_along;
-use crate::eval::Evaluator;
 
 /// Whether moving vertex `v` to `p` keeps every incident triangle's
 /// orientation and a reasonable share of its area.

@@ -81,9 +81,9 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::eval::{Evaluator, Reference, WHOLE, WHOLE_GRAD, prune};
+use crate::geometry::Bounds;
 use crate::interval::Interval;
 use crate::ir::Program;
-use crate::geometry::Bounds;
 pub use criteria::TopologyTest;
 pub use field::Field;
 
@@ -109,13 +109,17 @@ pub struct Node {
     /// Index of the first of the 8 children, or 0 for a leaf (the root is
     /// never anybody's child).
     pub first_child: u32,
+    /// Depth in the tree: 0 for the root (Ω), `l` for a cell of side
+    /// `size / 2^l`.
     pub level: u8,
+    /// Integer position of the cell in the level's grid, each in `[0, 2^level)`.
     pub ijk: [u32; 3],
     /// For leaves, how they ended; `None` for internal nodes.
     pub leaf: Option<Leaf>,
 }
 
 impl Node {
+    /// Whether the node has no children.
     pub fn is_leaf(&self) -> bool {
         self.first_child == 0
     }
@@ -125,9 +129,16 @@ impl Node {
 /// `--kmax`, `--certify`).
 #[derive(Clone, Copy, Debug)]
 pub struct OctreeOptions {
+    /// Deepest level a cell may be subdivided to (`--level`).
     pub max_level: u8,
+    /// Level down to which every non-empty cell is subdivided whatever the
+    /// criteria (`--min-level`).
     pub min_level: u8,
+    /// Geometry criterion (Paiva et al. §4.1): subdivide while the spread of
+    /// the unit normals over the cell exceeds it; 0 refines uniformly.
     pub kmax: f64,
+    /// Topology criterion applied to each cell (`--certify` picks
+    /// [`TopologyTest::Certify`]).
     pub test: TopologyTest,
     /// Time at which the surface is taken.
     pub t: f64,
@@ -151,9 +162,14 @@ impl Default for OctreeOptions {
 /// Counts gathered while building.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct OctreeStats {
+    /// Number of octree nodes built, leaves included.
     pub nodes: usize,
+    /// Leaves proved to hold no surface ([`Leaf::Empty`]).
     pub empty_leaves: usize,
+    /// Leaves that may hold surface and passed the topology criterion
+    /// ([`Leaf::Surface`]).
     pub surface_leaves: usize,
+    /// Leaves whose topology is not guaranteed ([`Leaf::Ambiguous`]).
     pub ambiguous_leaves: usize,
     /// Deepest level of a leaf that may hold surface.
     pub max_level_reached: u8,
@@ -161,9 +177,14 @@ pub struct OctreeStats {
 
 /// The adaptive octree. See the module doc.
 pub struct Octree {
+    /// All nodes, root first, siblings consecutive (see the module doc's
+    /// "Layout").
     pub nodes: Vec<Node>,
+    /// Lowest corner of the domain Ω (the root's box).
     pub lo: DVec3,
+    /// Extent of Ω along each axis (`hi - lo`).
     pub size: DVec3,
+    /// Counts gathered while building.
     pub stats: OctreeStats,
     /// Per node, the pruned program that is valid on a leaf's box, when
     /// the leaf's subtree was evaluated with one (see the module doc's

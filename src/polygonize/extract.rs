@@ -43,10 +43,10 @@ use std::collections::HashMap;
 
 use crate::dual::{self, Corner, DualCell};
 use crate::eval::Evaluator;
-use crate::mesh::Mesh;
-use crate::roots::{Segment, bisect_batch, project};
 use crate::eval::sample::{normals_at, values_at};
+use crate::mesh::Mesh;
 use crate::octree::{Leaf, Octree};
+use crate::roots::{Segment, bisect_batch, project};
 
 /// A mesh vertex before numbering: an edge between two leaves (smaller
 /// leaf first), or an interior vertex of one dual cell, packed into one
@@ -115,7 +115,9 @@ const CELLS_PER_TASK: usize = 1024;
 /// Counts of the extraction.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ExtractStats {
+    /// Dual cells whose corner values change sign (the ones polygonised).
     pub active_cells: usize,
+    /// Triangles dropped because two of their vertices were the same.
     pub dropped_degenerate: usize,
 }
 

@@ -182,7 +182,12 @@ pub const MAX_TRIS: usize = 48;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Vertex {
     /// On edge `edge`, at parameter `t` from its lower corner.
-    Edge { edge: u8, t: f64 },
+    Edge {
+        /// Edge id, `0..12` (see [`EDGE_CORNERS`]).
+        edge: u8,
+        /// Interpolation parameter in `[0, 1]` from the lower corner.
+        t: f64,
+    },
     /// Inside the cell, in cell coordinates.
     Interior(DVec3),
 }

@@ -236,9 +236,13 @@ pub fn bisect<E: Evaluator + ?Sized>(f: &E, t: f64, a: DVec3, b: DVec3, fa: f64,
 /// opposite signs (as [`bisect`] takes them).
 #[derive(Clone, Copy, Debug)]
 pub struct Segment {
+    /// First end.
     pub a: DVec3,
+    /// Second end.
     pub b: DVec3,
+    /// `f(a)`.
     pub fa: f64,
+    /// `f(b)`, of the sign opposite to `fa`.
     pub fb: f64,
 }
 

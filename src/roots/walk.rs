@@ -19,8 +19,8 @@
 
 use glam::DVec3;
 
-use crate::eval::Evaluator;
 use super::{at, bisect};
+use crate::eval::Evaluator;
 
 /// `(f, ∇f)` at `(p, t)`.
 fn grad_at<E: Evaluator + ?Sized>(f: &E, t: f64, p: DVec3) -> (f64, DVec3) {

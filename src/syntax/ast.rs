@@ -30,6 +30,7 @@ pub(crate) type Span = Range<usize>;
 pub struct ExprId(pub u32);
 
 impl ExprId {
+    /// The id as a `usize` index into [`Ast::exprs`].
     pub fn index(self) -> usize {
         self.0 as usize
     }
@@ -38,14 +39,20 @@ impl ExprId {
 /// Binary operators of the language.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BinKind {
+    /// `a + b`.
     Add,
+    /// `a - b`.
     Sub,
+    /// `a * b`.
     Mul,
+    /// `a / b`.
     Div,
+    /// `a ^ b` (power).
     Pow,
 }
 
 impl BinKind {
+    /// The operator's source symbol (`+ - * / ^`).
     pub fn symbol(self) -> &'static str {
         match self {
             BinKind::Add => "+",
@@ -64,60 +71,87 @@ pub enum ExprKind {
     Num(String),
     /// A name: a coordinate, `pi`, a `let`, a `param` or a fn parameter.
     Name(String),
+    /// Unary minus, `-a`.
     Neg(ExprId),
+    /// A binary operation `a op b`.
     Bin(BinKind, ExprId, ExprId),
     /// `name(args…)`; `name_span` covers the name only.
     Call {
+        /// The called function's name.
         name: String,
+        /// Span of the name alone.
         name_span: Span,
+        /// The arguments, in order.
         args: Vec<ExprId>,
     },
 }
 
+/// An expression in the arena: its node and source span.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Expr {
+    /// What the expression is.
     pub kind: ExprKind,
+    /// The whole expression's byte range in the source.
     pub span: Span,
 }
 
 /// A name with its span (a definition site).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Ident {
+    /// The name's text.
     pub name: String,
+    /// The name's byte range in the source.
     pub span: Span,
 }
 
+/// A statement of the language.
 #[derive(Clone, Debug, PartialEq)]
 pub enum StmtKind {
     /// `domain [a,b]^N;` (`power = Some((N text, span))`) or
     /// `domain [a,b], [c,d], …;` (`power = None`). The count of ranges and
     /// the power are checked by resolution, not by the grammar.
     Domain {
+        /// The ranges `[a, b]` as (low, high) expressions, in order.
         ranges: Vec<(ExprId, ExprId)>,
+        /// The exponent `N` of `[a,b]^N` (its text and span), if any.
         power: Option<(String, Span)>,
     },
+    /// `let name = value;`
     Let {
+        /// The defined name.
         name: Ident,
+        /// The bound expression.
         value: ExprId,
     },
+    /// `param name = value;`
     Param {
+        /// The parameter's name.
         name: Ident,
+        /// The default value (a constant expression).
         value: ExprId,
     },
+    /// `fn name(params…) = body;`
     Fn {
+        /// The function's name.
         name: Ident,
+        /// The formal parameters, in order.
         params: Vec<Ident>,
+        /// The function's body.
         body: ExprId,
     },
     /// `surface lhs;` or `surface lhs = rhs;`
     Surface {
+        /// The left-hand side (the whole function when there is no `=`).
         lhs: ExprId,
+        /// The right-hand side, if the statement is an equation.
         rhs: Option<ExprId>,
     },
 }
 
+/// A statement with its span.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Stmt {
+    /// What the statement is.
     pub kind: StmtKind,
     /// The whole statement, keyword to `;`.
     pub span: Span,
@@ -126,7 +160,9 @@ pub struct Stmt {
 /// The parsed file. See the module doc.
 #[derive(Clone, Debug, Default)]
 pub struct Ast {
+    /// The expression arena, indexed by [`ExprId`]; children before parents.
     pub exprs: Vec<Expr>,
+    /// The statements, in source order.
     pub stmts: Vec<Stmt>,
     /// Syntax errors found (and recovered from) while parsing.
     pub errors: Vec<Diagnostic>,
@@ -137,10 +173,12 @@ pub struct Ast {
 }
 
 impl Ast {
+    /// An empty AST.
     pub fn new() -> Self {
         Ast::default()
     }
 
+    /// The expression with id `id`.
     pub fn expr(&self, id: ExprId) -> &Expr {
         &self.exprs[id.index()]
     }
@@ -152,23 +190,28 @@ impl Ast {
         id
     }
 
+    /// Adds a number literal with source text `text`.
     pub fn num(&mut self, text: &str, span: Span) -> ExprId {
         self.push(ExprKind::Num(text.to_string()), span)
     }
 
+    /// Adds a name reference.
     pub fn name(&mut self, text: &str, span: Span) -> ExprId {
         self.push(ExprKind::Name(text.to_string()), span)
     }
 
+    /// Adds `-a`.
     pub fn neg(&mut self, a: ExprId, span: Span) -> ExprId {
         self.push(ExprKind::Neg(a), span)
     }
 
+    /// Adds `a op b`, spanning from the start of `a` to the end of `b`.
     pub fn bin(&mut self, op: BinKind, a: ExprId, b: ExprId) -> ExprId {
         let span = self.expr(a).span.start..self.expr(b).span.end;
         self.push(ExprKind::Bin(op, a, b), span)
     }
 
+    /// Adds the call `name(args…)`; `span` covers the whole call.
     pub fn call(&mut self, name: Ident, args: Vec<ExprId>, span: Span) -> ExprId {
         self.push(
             ExprKind::Call {
@@ -180,6 +223,7 @@ impl Ast {
         )
     }
 
+    /// Appends a statement.
     pub fn stmt(&mut self, kind: StmtKind, span: Span) {
         self.stmts.push(Stmt { kind, span });
     }

@@ -49,7 +49,10 @@ impl std::fmt::Display for FrontError {
         match self {
             FrontError::Source(e) => f.write_str(&e.render()),
             FrontError::ParamNotFinite { name, value } => {
-                write!(f, "param `{name}`: the value must be a finite number, got {value}")
+                write!(
+                    f,
+                    "param `{name}`: the value must be a finite number, got {value}"
+                )
             }
             FrontError::UnknownParam {
                 name,

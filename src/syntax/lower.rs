@@ -119,7 +119,9 @@ impl Sink for F64 {
             UnOp::Asin => a.asin(),
             UnOp::Acos => a.acos(),
             UnOp::Atan => a.atan(),
-            UnOp::Floor | UnOp::Ceil | UnOp::Round | UnOp::Not => crate::ir::semantics::point_unary(op, a),
+            UnOp::Floor | UnOp::Ceil | UnOp::Round | UnOp::Not => {
+                crate::ir::semantics::point_unary(op, a)
+            }
         }
     }
     fn binary(&mut self, op: BinOp, a: f64, b: f64) -> f64 {

@@ -32,10 +32,10 @@ pub mod parser;
 pub mod resolve;
 pub mod vm;
 
+use crate::geometry::Bounds;
+use crate::ir::Program;
 pub use diag::{Diagnostic, SourceError};
 pub use error::FrontError;
-use crate::ir::Program;
-use crate::geometry::Bounds;
 
 /// Options of the front end (and of [`crate::Surface::compile`]).
 #[derive(Clone, Debug, Default)]
@@ -53,6 +53,7 @@ pub const MAX_DIAGNOSTICS: usize = 100;
 /// The front end's result.
 #[derive(Clone, Debug)]
 pub struct Lowered {
+    /// The surface's function, lowered to IR.
     pub program: Program,
     /// The file's domain, or `CompileOptions::domain` when given.
     pub domain: Bounds,
@@ -145,7 +146,11 @@ pub(crate) fn check_domain(opts: &CompileOptions) -> Result<Option<Bounds>, Fron
 
 /// The front end for `file`, chosen by its extension: `.vm` → [`vm`]
 /// (Fidget's text-SSA models), anything else → `.iso` ([`front_end`]).
-pub(crate) fn front_end_for(source: &str, file: &str, opts: &CompileOptions) -> Result<Lowered, FrontError> {
+pub(crate) fn front_end_for(
+    source: &str,
+    file: &str,
+    opts: &CompileOptions,
+) -> Result<Lowered, FrontError> {
     if vm::is_vm_file(file) {
         vm::front_end(source, file, opts)
     } else {

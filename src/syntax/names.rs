@@ -9,11 +9,15 @@ use crate::ir::{UnOp, Var};
 /// A built-in function.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Builtin {
+    /// A one-argument function that lowers to the IR op.
     Unary(UnOp),
+    /// `atan2(y, x)`.
     Atan2,
     /// `pow(a, b)`, the same as `a ^ b`.
     Pow,
+    /// `min(a, b)`.
     Min,
+    /// `max(a, b)`.
     Max,
 }
 
@@ -40,7 +44,9 @@ pub(crate) const BUILTINS: [(&str, Builtin); 14] = [
 pub enum Res {
     /// Not a name/call node, or a node whose resolution failed.
     None,
+    /// A coordinate `x`, `y`, `z` or `t`.
     Coord(Var),
+    /// The constant `pi`.
     Pi,
     /// Index into [`Resolved::params`].
     Param(usize),
@@ -48,6 +54,7 @@ pub enum Res {
     Let(usize),
     /// The i-th parameter of the enclosing fn.
     FnParam(usize),
+    /// A call of a built-in function.
     Builtin(Builtin),
     /// Index into [`Resolved::fns`].
     Fn(usize),
@@ -56,23 +63,27 @@ pub enum Res {
 /// A function definition.
 #[derive(Clone, Debug)]
 pub struct FnDef {
+    /// The function's name.
     pub name: String,
+    /// Number of parameters.
     pub arity: usize,
+    /// The body expression.
     pub body: ExprId,
 }
 
 /// The result of resolution. See the module doc.
 #[derive(Clone, Debug, Default)]
 pub struct Resolved {
+    /// What each expression refers to, indexed by [`ExprId`] (one per node).
     pub res: Vec<Res>,
     /// Bodies of the `let`s, in source order.
     pub lets: Vec<ExprId>,
     /// Every `param` with its final value (after `--set`), in source order.
     pub params: Vec<(String, f64)>,
+    /// The `fn` definitions, in source order.
     pub fns: Vec<FnDef>,
     /// The first `surface`: lhs, rhs, statement span.
     pub surface: Option<(ExprId, Option<ExprId>, Span)>,
     /// The file's domain (not `--domain`), when it is valid.
     pub domain: Option<Bounds>,
 }
-

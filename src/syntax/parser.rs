@@ -17,8 +17,8 @@
 //! by the grammar's `!` rule).
 
 use super::ast::Ast;
-use super::lexer::{Spanned, Tok, lex};
 use super::diag::Diagnostic;
+use super::lexer::{Spanned, Tok, lex};
 use lalrpop_util::{ErrorRecovery, ParseError};
 use std::convert::Infallible;
 

@@ -23,14 +23,14 @@
 //!
 //! Expression walks use an explicit stack (no recursion).
 
-use super::ast::{Ast, ExprId, ExprKind, Ident, Span, StmtKind};
-use super::diag::closest;
-use super::names::{BUILTINS, Builtin, FnDef, Res, Resolved};
-use super::lower::eval_const;
-use super::diag::Diagnostic;
-use crate::ir::Var;
 use super::CompileOptions;
+use super::ast::{Ast, ExprId, ExprKind, Ident, Span, StmtKind};
+use super::diag::Diagnostic;
+use super::diag::closest;
+use super::lower::eval_const;
+use super::names::{BUILTINS, Builtin, FnDef, Res, Resolved};
 use crate::geometry::Bounds;
+use crate::ir::Var;
 use std::collections::HashMap;
 
 fn builtin(name: &str) -> Option<Builtin> {

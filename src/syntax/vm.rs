@@ -45,11 +45,11 @@ use std::collections::HashMap;
 use std::fmt::Write;
 use std::ops::Range;
 
-use super::{Lowered, diag, source_error};
-use super::{Diagnostic, FrontError};
-use crate::ir::{BinOp, Builder, Const, UnOp, Value, Var};
 use super::CompileOptions;
+use super::{Diagnostic, FrontError};
+use super::{Lowered, diag, source_error};
 use crate::geometry::Bounds;
+use crate::ir::{BinOp, Builder, Const, UnOp, Value, Var};
 
 /// The domain of a `.vm` model when `--domain` is not given.
 pub(crate) const DEFAULT_DOMAIN: Bounds = Bounds {

@@ -68,11 +68,14 @@ impl std::fmt::Display for TrackError {
                 f,
                 "need 0 < e_min and e_max ≥ 2·e_min (a split must not call for a collapse), got {e_min} and {e_max}"
             ),
-            TrackError::Material { young, poisson } => write!(
-                f,
-                "need E > 0 and −1 < ν < 0.5, got {young} and {poisson}"
-            ),
-            TrackError::Step { dt, eps_e, max_move } => write!(
+            TrackError::Material { young, poisson } => {
+                write!(f, "need E > 0 and −1 < ν < 0.5, got {young} and {poisson}")
+            }
+            TrackError::Step {
+                dt,
+                eps_e,
+                max_move,
+            } => write!(
                 f,
                 "dt, max_move must be positive, eps_e ≥ 0 (got {dt}, {max_move}, {eps_e})"
             ),

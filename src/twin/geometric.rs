@@ -30,15 +30,17 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::dynmesh::{EdgeKey, key};
-use crate::roots::walk::newton;
 use crate::eval::Evaluator;
-use crate::mesh::Mesh;
 use crate::eval::sample::grads_at;
+use crate::mesh::Mesh;
+use crate::roots::walk::newton;
 
 /// What [`refine`] did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RefineStats {
+    /// Passes that split at least one edge.
     pub passes: usize,
+    /// Edges split (midpoints inserted), over all passes.
     pub splits: usize,
     /// Refinement stopped at the triangle budget rather than for lack of
     /// marked edges or passes.

@@ -67,12 +67,12 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::eval::Evaluator;
-use crate::interval::Interval;
-use crate::mesher::{self, MeshOptions};
 use crate::eval::sample::grads_at;
-use crate::mesh::{Mesh, quality, topology};
-use crate::octree::OctreeOptions;
 use crate::geometry::Bounds;
+use crate::interval::Interval;
+use crate::mesh::{Mesh, quality, topology};
+use crate::mesher::{self, MeshOptions};
+use crate::octree::OctreeOptions;
 use crate::surface::Surface;
 use dynmesh::{DynMesh, EdgeKey, key};
 pub use error::TrackError;
@@ -95,7 +95,10 @@ pub struct TwinOptions {
     pub poisson: f64,
     /// Time step of the quasi-static solve (eq. 1).
     pub dt: f64,
+    /// e_min: edges shorter than `e_min·ê` are collapsed (§2.5).
     pub e_min: f64,
+    /// e_max: edges longer than `e_max·ê` are split (§2.5); at least
+    /// `2·e_min`.
     pub e_max: f64,
     /// ε_e: tolerance on an edge's length change (§2.5).
     pub eps_e: f64,
@@ -103,7 +106,10 @@ pub struct TwinOptions {
     pub flips: bool,
     /// The sharp-feature constraint (eq. 4).
     pub sharp: bool,
+    /// Most conjugate-gradient iterations per quasi-static step (eq. 1).
     pub cg_iterations: usize,
+    /// CG stops once the (tangent-filtered) residual's norm is below this
+    /// times the right-hand side's.
     pub cg_tolerance: f64,
     /// How far a vertex may move per frame, in units of ê.
     pub max_move: f64,
@@ -142,23 +148,38 @@ impl Default for TwinOptions {
 /// Milliseconds per part of a frame.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct FrameTimings {
+    /// Milliseconds in the topology watch (step 1), re-initialisation
+    /// included.
     pub watch: f64,
+    /// Milliseconds in the mechanical mesh: steps, projections, inversion
+    /// recovery and remeshing (steps 2–5).
     pub mechanical: f64,
+    /// Milliseconds rebuilding the geometric mesh (step 6, §3).
     pub geometric: f64,
+    /// Milliseconds for the whole frame.
     pub total: f64,
 }
 
 /// What one [`Tracker::advance`] did (one entry of `stats.json`).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct FrameReport {
+    /// The time of this frame.
     pub t: f64,
+    /// Triangles of the mechanical mesh at the end of the frame.
     pub mechanical_triangles: usize,
+    /// Vertices of the mechanical mesh at the end of the frame.
     pub mechanical_vertices: usize,
+    /// Triangles of the geometric mesh (§3).
     pub geometric_triangles: usize,
+    /// Vertices of the geometric mesh (§3).
     pub geometric_vertices: usize,
+    /// Edge splits of this frame's remeshing (§2.5).
     pub splits: usize,
+    /// Edge collapses of this frame's remeshing (§2.5).
     pub collapses: usize,
+    /// Edge flips of this frame's remeshing (beyond the paper).
     pub flips: usize,
+    /// Edges split by the geometric refinement, over all its passes (§3).
     pub geometric_splits: usize,
     /// The geometric refinement stopped at its triangle budget.
     pub geometric_budget_hit: bool,
@@ -168,6 +189,8 @@ pub struct FrameReport {
     pub inverted_repaired: usize,
     /// Inverted triangles left at the end of the frame.
     pub inverted_left: usize,
+    /// Conjugate-gradient iterations of all this frame's steps, recovery
+    /// steps included.
     pub cg_iterations: usize,
     /// Share of mechanical triangles with aspect ratio > 0.8.
     pub aspect_good: f64,
@@ -176,8 +199,12 @@ pub struct FrameReport {
     /// Why the mechanical mesh was rebuilt by the robust mesher this
     /// frame, if it was.
     pub reinitialized: Option<String>,
+    /// Connected components of the mechanical mesh.
     pub components: usize,
+    /// Genus of each component, in increasing order; `None` for a
+    /// component that is not closed.
     pub genus: Vec<Option<i64>>,
+    /// Time spent per part of the frame.
     pub ms: FrameTimings,
 }
 
@@ -232,7 +259,11 @@ fn ms(since: Instant) -> f64 {
 impl<'s> Tracker<'s, Surface> {
     /// Meshes `surface` at `t0` over `opts.domain` or the surface's own
     /// (see the module doc).
-    pub fn new(surface: &'s Surface, t0: f64, opts: &TwinOptions) -> Result<Tracker<'s>, TrackError> {
+    pub fn new(
+        surface: &'s Surface,
+        t0: f64,
+        opts: &TwinOptions,
+    ) -> Result<Tracker<'s>, TrackError> {
         // A surface that does not depend on t cannot change (the program
         // is simplified and dead-code free, so an unused t is absent).
         let moves = surface

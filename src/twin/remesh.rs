@@ -42,17 +42,22 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use glam::DVec3;
 
 use super::dynmesh::{DynMesh, EdgeKey, key};
-use crate::roots::walk::newton;
 use crate::eval::Evaluator;
+use crate::roots::walk::newton;
 
 /// Thresholds of [`remesh`].
 #[derive(Clone, Copy, Debug)]
 pub struct Params {
     /// ê.
     pub edge: f64,
+    /// e_min: edges shorter than `e_min·ê` are collapsed.
     pub e_min: f64,
+    /// e_max: edges longer than `e_max·ê` are split.
     pub e_max: f64,
+    /// ε_e: tolerance on an edge's length change since the last frame, in
+    /// units of ê.
     pub eps_e: f64,
+    /// Whether edge flips run (beyond the paper).
     pub flips: bool,
     /// Sweeps over the edges per call.
     pub sweeps: usize,
@@ -61,8 +66,11 @@ pub struct Params {
 /// What [`remesh`] did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Counts {
+    /// Edges split.
     pub splits: usize,
+    /// Edges collapsed.
     pub collapses: usize,
+    /// Edges flipped.
     pub flips: usize,
 }
 

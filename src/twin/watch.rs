@@ -31,8 +31,8 @@
 use glam::DVec3;
 
 use crate::eval::{Evaluator, WHOLE, WHOLE_GRAD};
-use crate::interval::Interval;
 use crate::geometry::Bounds;
+use crate::interval::Interval;
 
 /// What [`certify`] concluded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -46,6 +46,7 @@ pub enum Verdict {
 /// Counts from one [`certify`] call.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Report {
+    /// Whether the topology was proved unchanged.
     pub verdict: Verdict,
     /// Cells evaluated.
     pub cells: usize,

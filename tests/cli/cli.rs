@@ -353,7 +353,11 @@ fn animate_errors_write_nothing() {
             .get(2)
             .filter(|f| ["--edge", "--passes", "--alpha"].contains(f) && args[3] != "-1")
         {
-            assert!(stderr(&o).starts_with(&format!("error: {flag}")), "{args:?}: {}", stderr(&o));
+            assert!(
+                stderr(&o).starts_with(&format!("error: {flag}")),
+                "{args:?}: {}",
+                stderr(&o)
+            );
         }
         assert!(!dir.exists(), "{args:?} created the output directory");
     }

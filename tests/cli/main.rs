@@ -4,9 +4,10 @@
 //! the shared helpers are in `tests/support`.
 
 #[macro_use]
-#[allow(dead_code, unused_macros)]
+#[allow(unused_macros)]
 #[path = "../support/mod.rs"]
 mod support;
 
 mod cli;
 mod io;
+mod layout;

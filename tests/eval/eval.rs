@@ -1,8 +1,9 @@
 //! The shared backend suite run against the reference interpreters, plus
 //! tests showing the suite's checks catch broken backends.
 
-
-use crate::support::{check_batches, check_degenerate, check_grad, check_interval, check_point_grad};
+use crate::support::{
+    check_batches, check_degenerate, check_grad, check_interval, check_point_grad,
+};
 use isoc::eval::{Evaluator, GradEval, Reference};
 use isoc::interval::{DecInterval, Interval};
 use isoc::ir::{BinOp, Op, Program, UnOp, Value, Var};

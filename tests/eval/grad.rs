@@ -3,7 +3,6 @@
 //! behind the point/interval agreement of the shared suite), and the
 //! non-smooth cases of the interval rules.
 
-
 use isoc::eval::{grad, point};
 use isoc::interval::Interval;
 use isoc::ir::{BinOp, Const, Op, Program, UnOp, Value, Var};

@@ -2,7 +2,6 @@
 //! for the algebraic ops, containment of the *exact* real result) and unit
 //! tests of the tricky cases.
 
-
 use crate::support::exact::Dyadic;
 use crate::support::{Rng, arb_exponent, arb_interval, encloses, sample};
 
@@ -232,14 +231,26 @@ fn pi_constants_bracket_pi() {
 
 #[test]
 fn square_of_straddling_interval_starts_at_zero() {
-    assert_eq!(isoc::ir::semantics::enclose_powi(iv(-1.0, 2.0), 2), (iv(0.0, 4.0), true));
+    assert_eq!(
+        isoc::ir::semantics::enclose_powi(iv(-1.0, 2.0), 2),
+        (iv(0.0, 4.0), true)
+    );
     assert_eq!(
         isoc::ir::semantics::enclose_unary(UnOp::Square, iv(-1.0, 2.0)),
         (iv(0.0, 4.0), true)
     );
-    assert_eq!(isoc::ir::semantics::enclose_powi(iv(-3.0, -2.0), 2), (iv(4.0, 9.0), true));
-    assert_eq!(isoc::ir::semantics::enclose_powi(iv(-1.0, 2.0), 3), (iv(-1.0, 8.0), true));
-    assert_eq!(isoc::ir::semantics::enclose_powi(iv(-2.0, 1.0), 4), (iv(0.0, 16.0), true));
+    assert_eq!(
+        isoc::ir::semantics::enclose_powi(iv(-3.0, -2.0), 2),
+        (iv(4.0, 9.0), true)
+    );
+    assert_eq!(
+        isoc::ir::semantics::enclose_powi(iv(-1.0, 2.0), 3),
+        (iv(-1.0, 8.0), true)
+    );
+    assert_eq!(
+        isoc::ir::semantics::enclose_powi(iv(-2.0, 1.0), 4),
+        (iv(0.0, 16.0), true)
+    );
 }
 
 #[test]
@@ -249,12 +260,27 @@ fn negative_powers() {
         isoc::ir::semantics::enclose_powi(iv(-1.0, 1.0), -2),
         (iv(1.0, f64::INFINITY), false)
     );
-    assert_eq!(isoc::ir::semantics::enclose_powi(iv(2.0, 4.0), -1), (iv(0.25, 0.5), true));
-    assert_eq!(isoc::ir::semantics::enclose_powi(iv(-1.0, 1.0), -1), (Interval::ENTIRE, false));
-    assert_eq!(isoc::ir::semantics::enclose_powi(iv(0.0, 0.0), -1).0, Interval::EMPTY);
-    assert_eq!(isoc::ir::semantics::point_powi(0.0, -1).to_bits(), f64::NAN.to_bits());
+    assert_eq!(
+        isoc::ir::semantics::enclose_powi(iv(2.0, 4.0), -1),
+        (iv(0.25, 0.5), true)
+    );
+    assert_eq!(
+        isoc::ir::semantics::enclose_powi(iv(-1.0, 1.0), -1),
+        (Interval::ENTIRE, false)
+    );
+    assert_eq!(
+        isoc::ir::semantics::enclose_powi(iv(0.0, 0.0), -1).0,
+        Interval::EMPTY
+    );
+    assert_eq!(
+        isoc::ir::semantics::point_powi(0.0, -1).to_bits(),
+        f64::NAN.to_bits()
+    );
     // a^0 = 1 everywhere, even on the empty set (point value 1 for NaN).
-    assert_eq!(isoc::ir::semantics::enclose_powi(Interval::EMPTY, 0).0, Interval::point(1.0));
+    assert_eq!(
+        isoc::ir::semantics::enclose_powi(Interval::EMPTY, 0).0,
+        Interval::point(1.0)
+    );
     assert_eq!(isoc::ir::semantics::point_powi(f64::NAN, 0), 1.0);
 }
 
@@ -335,7 +361,8 @@ fn decimal_sum_encloses_the_real_sum() {
     assert!(r.lo <= 0.3 && 0.3f64.next_up() <= r.hi, "{r:?}");
     assert!(r.contains(0.1 + 0.2));
     // Degenerate floats: 0.1f64 + 0.2f64 is inexact, the interval brackets it.
-    let (r, _) = isoc::ir::semantics::enclose_binary(BinOp::Add, Interval::point(0.1), Interval::point(0.2));
+    let (r, _) =
+        isoc::ir::semantics::enclose_binary(BinOp::Add, Interval::point(0.1), Interval::point(0.2));
     assert!(r.lo < r.hi && r.contains(0.1 + 0.2));
     let e = Dyadic::of(0.1).add(Dyadic::of(0.2)).unwrap();
     assert!(e.within(r.lo, r.hi));
@@ -456,7 +483,10 @@ fn pow_is_defined_for_positive_bases_only() {
 #[test]
 fn nan_and_infinite_inputs() {
     let nan = iv(f64::NAN, 1.0);
-    assert_eq!(isoc::ir::semantics::enclose_unary(UnOp::Neg, nan), (Interval::ENTIRE, false));
+    assert_eq!(
+        isoc::ir::semantics::enclose_unary(UnOp::Neg, nan),
+        (Interval::ENTIRE, false)
+    );
     let (r, d) = isoc::ir::semantics::enclose_binary(BinOp::Add, nan, iv(1.0, 1.0));
     assert!(!d && r == Interval::ENTIRE);
     let (r, d) = isoc::ir::semantics::enclose_unary(UnOp::Exp, iv(f64::NEG_INFINITY, 0.0));

@@ -12,7 +12,6 @@
 //! the grid's boundary layer). The grid has 64 cells per side unless the
 //! expect line says `grid=N`.
 
-
 use crate::support::front::eval;
 use isoc::CompileOptions;
 use isoc::syntax::front_end;

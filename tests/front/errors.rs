@@ -1,6 +1,5 @@
 //! One test per error kind: the message, `FILE:LINE:COL` and the caret.
 
-
 use crate::support::front::*;
 use isoc::CompileOptions;
 use isoc::syntax::source_from_bytes;

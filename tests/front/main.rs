@@ -4,15 +4,15 @@
 //! the shared helpers are in `tests/support`.
 
 #[macro_use]
-#[allow(dead_code, unused_macros)]
+#[allow(unused_macros)]
 #[path = "../support/mod.rs"]
 mod support;
 
-mod syntax;
+mod corpus;
 mod errors;
 mod ir;
 mod reprint;
 mod roundtrip;
 mod simplify;
 mod stack;
-mod corpus;
+mod syntax;

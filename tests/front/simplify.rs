@@ -4,7 +4,6 @@
 //! zero; NaN where the original is NaN), and its interval enclosures still
 //! contain the original's point values.
 
-
 use crate::support::{arb_point, arb_program, cases, encloses, same};
 use isoc::eval::{interval, point};
 use isoc::interval::Interval;

@@ -1,7 +1,6 @@
 //! Hostile inputs: each must give a result or an error quickly, without
 //! panicking or overflowing the (default, 2 MiB) test thread stack.
 
-
 use crate::support::front::*;
 use isoc::CompileOptions;
 use isoc::syntax::{emit_ast, front_end, source_from_bytes};

@@ -1,7 +1,6 @@
 //! Parser and lowering tests: every statement form, precedence and
 //! associativity, comments, literals, `--emit ast`, `--set`, `--domain`.
 
-
 use crate::support::front::*;
 use isoc::CompileOptions;
 use isoc::syntax::FrontError;
@@ -131,7 +130,15 @@ fn set_and_domain_options() {
     };
     match front_end("domain [0,1]^3; param r = 1; surface x - r;", "f.iso", &bad) {
         Err(e @ FrontError::UnknownParam { .. }) => {
-            let FrontError::UnknownParam { name, closest, known, .. } = &e else { unreachable!() };
+            let FrontError::UnknownParam {
+                name,
+                closest,
+                known,
+                ..
+            } = &e
+            else {
+                unreachable!()
+            };
             assert_eq!((name.as_str(), closest.as_deref()), ("rr", Some("r")));
             assert_eq!(known, &["r".to_string()]);
             let m = e.to_string();

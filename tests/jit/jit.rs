@@ -3,7 +3,7 @@
 //! containment), batch == single, and the constant-folding soundness trap.
 //!
 //! The oracles here cover the ops the kernels inline and are written from
-//! the IR's documented semantics; `tests/jit_vs_eval.rs` compares with the
+//! the IR's documented semantics; `tests/jit/jit_vs_eval.rs` compares with the
 //! reference evaluators for every op.
 
 use isoc::interval::Interval;

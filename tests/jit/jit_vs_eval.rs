@@ -1,8 +1,7 @@
 //! The JIT against the reference evaluators on random programs of every op
-//! (the shared strategy of `tests/common`): the shared backend suite, and
+//! (the shared strategy of `tests/support`): the shared backend suite, and
 //! tightness and decoration agreement with the reference interval and
 //! gradient evaluators.
-
 
 use isoc::eval::{Evaluator, Reference};
 use isoc::ir::{BinOp, Op, Program, UnOp, Value, Var};
@@ -12,7 +11,7 @@ use isoc::jit::{JitOptions, Kernels};
 /// allocator: the kernels' semantics do not depend on the allocator, and
 /// it keeps 10,000 compilations per property affordable. The default
 /// allocator, with the IR verifier on, is exercised on every corpus file
-/// by `tests/jit_corpus.rs` and by the other tests.
+/// by `tests/jit/jit_corpus.rs` and by the other tests.
 fn jit(p: &Program) -> Kernels {
     let opts = JitOptions {
         fast_compile: true,

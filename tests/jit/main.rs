@@ -4,11 +4,11 @@
 //! the shared helpers are in `tests/support`.
 
 #[macro_use]
-#[allow(dead_code, unused_macros)]
+#[allow(unused_macros)]
 #[path = "../support/mod.rs"]
 mod support;
 
 mod jit;
-mod jit_vs_eval;
 mod jit_corpus;
+mod jit_vs_eval;
 mod pgrad;

@@ -6,7 +6,6 @@
 
 #![allow(clippy::needless_range_loop)]
 
-
 use isoc::eval::grad;
 use isoc::interval::Interval;
 use isoc::ir::{BinOp, Builder, Const, Op, Program, UnOp, Value, Var};
@@ -35,7 +34,7 @@ fn check_point(k: &Kernels, prog: &Program, p: [f64; 4]) -> Result<(f64, [f64; 3
     }
     // The point kernel's min/max may pick the other zero of a ±0 tie than
     // Rust's f64::min; that is the point kernel's business (see
-    // tests/jit_vs_eval.rs), so compare the value with `==` here.
+    // tests/jit/jit_vs_eval.rs), so compare the value with `==` here.
     if !(v == rv || (v.is_nan() && rv.is_nan())) {
         return Err(format!("value {v:e} != reference {rv:e} at {p:?}"));
     }

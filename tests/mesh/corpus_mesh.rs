@@ -1,7 +1,7 @@
 //! The mesher on the corpus: every file meshes; whenever the mesher says
 //! `guaranteed`, the mesh's own topology (components and total genus,
 //! computed from the mesh) is the one the file's `# expect:` line states
-//! (checked independently by `tests/corpus.rs`); the chair gives the same
+//! (checked independently by `tests/front/corpus.rs`); the chair gives the same
 //! triangulation up to a few percent in its three domains (Paiva et al.
 //! Fig. 8: no symmetry artefacts).
 

@@ -4,13 +4,13 @@
 //! the shared helpers are in `tests/support`.
 
 #[macro_use]
-#[allow(dead_code, unused_macros)]
+#[allow(unused_macros)]
 #[path = "../support/mod.rs"]
 mod support;
 
-mod mesh;
+mod corpus_mesh;
 mod dual;
 mod mc33;
-mod roots;
+mod mesh;
 mod quality;
-mod corpus_mesh;
+mod roots;

@@ -15,15 +15,15 @@
 //! 2·twist/n², twist = largest bilinear/trilinear coefficient) is a
 //! heuristic: an oracle error would show up as a mismatch, not hide one.
 //!
-//! Run: `cargo test --test mc33 -- --nocapture` (prints the statistics:
+//! Run: `cargo test --test mesh mc33:: -- --nocapture` (prints the statistics:
 //! cells compared, refined, skipped, mismatches, topologies met, orientation).
 
 use glam::DVec3;
+use isoc::mesh::Mesh;
+use isoc::mesh::topology::{analyze, triangle_components};
 use isoc::polygonize::mc33::{
     self, CellMesh, EDGE_CORNERS, Vertex, polygonize, trilinear, trilinear_gradient,
 };
-use isoc::mesh::Mesh;
-use isoc::mesh::topology::{analyze, triangle_components};
 
 /// Components and Euler characteristic of a zero set: what the oracle
 /// computes and what the mesh's topology is compared on.

@@ -4,11 +4,11 @@
 //! a cell is never dropped silently; `guaranteed` never lies; a surface
 //! that leaves the domain gives a clean open mesh.
 
-use isoc::eval::Reference;
-use isoc::mesher::{self, MeshOptions, MeshReport};
-use isoc::mesh::{Mesh, topology};
-use isoc::octree::{OctreeOptions, TopologyTest};
 use isoc::Surface;
+use isoc::eval::Reference;
+use isoc::mesh::{Mesh, topology};
+use isoc::mesher::{self, MeshOptions, MeshReport};
+use isoc::octree::{OctreeOptions, TopologyTest};
 
 use crate::support::surface;
 

@@ -12,9 +12,9 @@
 use std::sync::OnceLock;
 
 use glam::DVec3;
-use isoc::mesher::{self, MeshOptions};
 use isoc::mesh::quality::{aspect_good, aspect_ratio};
 use isoc::mesh::{Mesh, topology};
+use isoc::mesher::{self, MeshOptions};
 use isoc::mesher::{flip, smooth};
 use isoc::octree::OctreeOptions;
 use isoc::{CompileOptions, Surface};

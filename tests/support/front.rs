@@ -3,7 +3,6 @@
 //! (independent of `isoc::eval`).
 #![allow(dead_code)]
 
-
 use isoc::ir::{BinOp, Op, Program, UnOp};
 use isoc::syntax::{FrontError, Lowered, front_end};
 use isoc::{Bounds, CompileOptions};

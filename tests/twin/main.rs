@@ -4,7 +4,7 @@
 //! the shared helpers are in `tests/support`.
 
 #[macro_use]
-#[allow(dead_code, unused_macros)]
+#[allow(unused_macros)]
 #[path = "../support/mod.rs"]
 mod support;
 
