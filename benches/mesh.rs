@@ -52,7 +52,7 @@ fn stages(c: &mut Criterion) {
             g.bench_function(id("polygonize"), |b| {
                 b.iter(|| black_box(extract::extract(&tree, &s, 0.0, &values, &active)))
             });
-            let (mesh, _) = extract::extract(&tree, &s, 0.0, &values, &active);
+            let (mesh, _, _) = extract::extract(&tree, &s, 0.0, &values, &active);
             g.bench_function(id("smooth"), |b| {
                 b.iter(|| {
                     let mut m = mesh.clone();

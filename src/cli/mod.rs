@@ -106,6 +106,10 @@ pub struct MeshArgs {
     /// pruning of min/max branches).
     #[arg(long = "no-prune")]
     pub no_prune: bool,
+    /// Leave sharp creases (CSG edges and corners) cut off as marching
+    /// cubes makes them, instead of putting vertices on them.
+    #[arg(long = "no-creases")]
+    pub no_creases: bool,
     /// Time at which a surface in `t` is meshed.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub t: f64,
@@ -451,6 +455,7 @@ fn mesh_command(
         },
         smooth: m.smooth,
         domain: None,
+        creases: !m.no_creases,
     };
     let progress = |stage: Stage| {
         bar.set_message(match stage {
@@ -523,6 +528,7 @@ fn mesh_command(
             "max_level_reached": r.octree.max_level_reached,
             "topology_test": if m.certify { "certify" } else { "paper" },
             "boundary_edges": r.topology.boundary_edges,
+            "crease_vertices": r.crease_vertices,
             "octree_nodes": r.octree.nodes,
             "dual_cells": r.dual_cells,
             "timings_ms": {

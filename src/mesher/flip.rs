@@ -80,6 +80,8 @@ pub(crate) struct Flips {
     degree: Vec<u32>,
     /// Aspect ratio per triangle.
     aspect: Vec<f64>,
+    /// Vertices whose joining edges are never flipped (crease points).
+    keep: Vec<bool>,
 }
 
 impl Flips {
@@ -130,6 +132,7 @@ impl Flips {
             twin,
             degree,
             aspect,
+            keep: Vec::new(),
         }
     }
 
@@ -204,6 +207,10 @@ impl Flips {
         if c == d || p == c || q == c || p == d || q == d {
             return None;
         }
+        let kept = |v: u32| self.keep.get(v as usize).copied().unwrap_or(false);
+        if kept(p) && kept(q) {
+            return None;
+        }
         let old = [[p, q, c], [q, p, d]];
         let new = [[c, p, d], [d, q, c]];
         let (n1, n2) = (aspect_ratio(mesh, new[0]), aspect_ratio(mesh, new[1]));
@@ -257,6 +264,12 @@ impl Flips {
 }
 
 impl Flips {
+    /// Never flip an edge whose two ends are flagged in `keep` (a crease
+    /// of [`super::crease`]).
+    pub fn keep_edges_between(&mut self, keep: &[bool]) {
+        self.keep = keep.to_vec();
+    }
+
     /// The aspect ratio of every triangle as the last [`Flips::run`] left
     /// the mesh.
     pub fn aspects(&self) -> &[f64] {

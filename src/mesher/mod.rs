@@ -1,6 +1,7 @@
 //! The robust adaptive mesher end to end (Paiva et al. §4): octree →
 //! dual grid → dual marching cubes (MC33) with vertices bisected onto the
-//! surface → smoothing (edge flips and tangential relaxation) → report.
+//! surface → sharp creases ([`crease`]) → smoothing (edge flips and
+//! tangential relaxation) → report.
 //! The report's topology is computed from the mesh itself
 //! ([`crate::mesh::topology`]), never assumed.
 //!
@@ -12,6 +13,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
+pub mod crease;
 pub mod flip;
 pub mod smooth;
 
@@ -47,6 +49,7 @@ use crate::surface::Surface;
 ///     },
 ///     smooth: 0,
 ///     domain: Some(Bounds { lo: [-2.0; 3], hi: [2.0; 3] }),
+///     ..MeshOptions::default()
 /// };
 /// let (mesh, report) = isoc::mesher::mesh(&torus, &opts, &|_stage| {});
 /// assert!(report.topology.watertight);
@@ -64,6 +67,9 @@ pub struct MeshOptions {
     pub smooth: usize,
     /// The domain; `None` means the surface's own.
     pub domain: Option<Bounds>,
+    /// Put vertices on sharp creases (CSG edges and corners) and join them
+    /// by edges ([`crease`]; `--no-creases` turns it off).
+    pub creases: bool,
 }
 
 impl Default for MeshOptions {
@@ -72,6 +78,7 @@ impl Default for MeshOptions {
             octree: OctreeOptions::default(),
             smooth: 3,
             domain: None,
+            creases: true,
         }
     }
 }
@@ -115,6 +122,8 @@ pub struct MeshReport {
     pub active_cells: usize,
     /// Vertex moves accepted by smoothing, over all passes.
     pub smoothing_moves: usize,
+    /// Vertices placed on sharp creases ([`crease`]).
+    pub crease_vertices: usize,
     /// Time spent per stage.
     pub timings: Timings,
 }
@@ -194,12 +203,18 @@ fn mesh_refining<E: Evaluator + ?Sized>(
 
     progress(Stage::Polygonize);
     let t0 = Instant::now();
-    let (mut mesh, ex) = extract::extract(&tree, &field, t, &values, &active);
+    let (mut mesh, ex, cell_of) = extract::extract(&tree, &field, t, &values, &active);
+    let creases = if opts.creases {
+        let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
+        crease::sharpen(&mut mesh, &cell_of, &bounds, &field, t)
+    } else {
+        crease::Creases::default()
+    };
     let polygonize_ms = ms(t0);
 
     progress(Stage::Smooth);
     let t0 = Instant::now();
-    let moves = smooth::smooth(&mut mesh, &field, t, opts.smooth);
+    let moves = smooth::smooth_keeping(&mut mesh, &field, t, opts.smooth, &creases.feature);
     let smooth_ms = ms(t0);
 
     let topo = topology::analyze(&mesh);
@@ -214,6 +229,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
         dual_cells,
         active_cells: ex.active_cells,
         smoothing_moves: moves,
+        crease_vertices: creases.cells,
         timings: Timings {
             octree: octree_ms,
             dual: dual_ms,

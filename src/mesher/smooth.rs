@@ -184,12 +184,29 @@ fn colour_classes(mesh: &Mesh, star: &Star) -> Vec<Vec<u32>> {
 /// Runs `passes` smoothing passes on the surface `f(·, t) = 0`; returns how
 /// many moves were accepted.
 pub fn smooth<E: Evaluator + ?Sized>(mesh: &mut Mesh, f: &E, t: f64, passes: usize) -> usize {
+    smooth_keeping(mesh, f, t, passes, &[])
+}
+
+/// [`smooth`], keeping the vertices flagged in `keep` (crease points,
+/// [`super::crease`]) where they are and every edge between two of them
+/// unflipped (a shorter `keep` flags nothing past its end).
+pub fn smooth_keeping<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    f: &E,
+    t: f64,
+    passes: usize,
+    keep: &[bool],
+) -> usize {
     if passes == 0 || mesh.triangles.is_empty() {
         return 0;
     }
     let mut accepted = 0;
     let mut flips = Flips::new(mesh);
-    let pinned = flips.pinned(mesh);
+    flips.keep_edges_between(keep);
+    let mut pinned = flips.pinned(mesh);
+    for (p, &k) in pinned.iter_mut().zip(keep) {
+        *p |= k;
+    }
     let mut moved = vec![false; mesh.positions.len()];
     for _ in 0..passes {
         flips.run(mesh);

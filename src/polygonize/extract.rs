@@ -105,6 +105,8 @@ impl Key {
 #[derive(Default)]
 struct CellsOutput {
     triangles: Vec<[Key; 3]>,
+    /// The active cell of each triangle.
+    cells: Vec<u32>,
     interiors: Vec<(Key, DVec3)>,
     dropped: usize,
 }
@@ -210,14 +212,15 @@ pub fn active_cells<E: Evaluator + ?Sized>(
 }
 
 /// Polygonises the active dual cells of the octree of `f(·, t)`. See the
-/// module doc.
+/// module doc. Also returns, per triangle, the index in `active` of its
+/// dual cell (the triangles of one cell are consecutive).
 pub fn extract<E: Evaluator + ?Sized>(
     tree: &Octree,
     f: &E,
     t: f64,
     values: &CornerValues,
     active: &[DualCell],
-) -> (Mesh, ExtractStats) {
+) -> (Mesh, ExtractStats, Vec<u32>) {
     let nodes = &tree.nodes;
     let mut stats = ExtractStats {
         active_cells: active.len(),
@@ -237,6 +240,10 @@ pub fn extract<E: Evaluator + ?Sized>(
         })
         .collect();
     stats.dropped_degenerate = outputs.iter().map(|o| o.dropped).sum();
+    let cell_of: Vec<u32> = outputs
+        .iter()
+        .flat_map(|o| o.cells.iter().copied())
+        .collect();
 
     // Number the vertices in key order: every triangle corner with its
     // slot, sorted by key; a new key is a new vertex.
@@ -308,7 +315,7 @@ pub fn extract<E: Evaluator + ?Sized>(
         triangles: slots.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
     };
     mesh.normals = normals_at(f, t, &mesh.positions);
-    (mesh, stats)
+    (mesh, stats, cell_of)
 }
 
 /// Polygonises active dual cell number `ci` into `out`.
@@ -341,6 +348,7 @@ fn polygonize_cell(
             out.dropped += 1;
         } else {
             out.triangles.push(k);
+            out.cells.push(ci);
         }
     }
 }
@@ -355,14 +363,19 @@ fn trilinear_map(tree: &Octree, cell: &DualCell, p: DVec3) -> DVec3 {
     x00.lerp(x10, p.y).lerp(x01.lerp(x11, p.y), p.z)
 }
 
+/// The bounding box (low and high corners) of a dual cell's corners.
+pub fn cell_bounds(tree: &Octree, cell: &DualCell) -> [DVec3; 2] {
+    cell.iter().fold(
+        [DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)],
+        |[lo, hi], &l| {
+            let c = l.position(tree);
+            [lo.min(c), hi.max(c)]
+        },
+    )
+}
+
 /// The largest distance between two corners of a dual cell.
 fn cell_reach(tree: &Octree, cell: &DualCell) -> f64 {
-    let (lo, hi) = cell.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), &l| {
-            let c = l.position(tree);
-            (lo.min(c), hi.max(c))
-        },
-    );
+    let [lo, hi] = cell_bounds(tree, cell);
     (hi - lo).length()
 }

@@ -416,6 +416,9 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             },
             smooth: 0,
             domain: Some(self.domain),
+            // The tracker keeps features its own way (the sharp-feature
+            // constraint); its starting meshes are plain marching cubes.
+            creases: false,
         };
         let (mesh, report) = mesher::mesh_with(self.f, self.domain, &opts, &|_| {});
         (mesh, report.topology)

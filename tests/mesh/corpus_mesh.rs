@@ -50,6 +50,7 @@ fn run(s: &Surface, level: u8, kmax: f64, test: TopologyTest) -> MeshReport {
         },
         smooth: 0,
         domain: None,
+        creases: true,
     };
     mesher::mesh(s, &opts, &|_| {}).1
 }

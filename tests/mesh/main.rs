@@ -9,6 +9,7 @@
 mod support;
 
 mod corpus_mesh;
+mod crease;
 mod dual;
 mod mc33;
 mod mesh;

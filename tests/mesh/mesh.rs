@@ -24,6 +24,7 @@ fn run(s: &Surface, level: u8, test: TopologyTest, smooth: usize) -> (Mesh, Mesh
         },
         smooth,
         domain: None,
+        creases: true,
     };
     mesher::mesh(s, &opts, &|_| {})
 }
@@ -244,6 +245,7 @@ fn a_closed_surface_near_the_domain_boundary_stays_closed() {
         },
         smooth: 2,
         domain: None,
+        creases: true,
     };
     let (m, r) = mesher::mesh(&s, &opts, &|_| {});
     check_closed("Fig. 1 torus, k_max 4.9", &s, &m, &r, &[1]);
@@ -268,6 +270,7 @@ fn the_reference_interpreter_meshes_exactly_like_the_jit() {
             },
             smooth: 2,
             domain: None,
+            creases: true,
         };
         let (jm, jr) = mesher::mesh(&s, &opts, &|_| {});
         let reference = Reference(s.program.clone());
@@ -383,6 +386,7 @@ fn pruning_changes_nothing() {
         },
         smooth: 2,
         domain: None,
+        creases: true,
     };
     let reference = Reference(s.program.clone());
     // The octree does prune: most surface leaves carry a program much

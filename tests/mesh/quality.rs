@@ -36,6 +36,7 @@ fn raw(s: &Surface, level: u8) -> Mesh {
         },
         smooth: 0,
         domain: None,
+        creases: true,
     };
     mesher::mesh(s, &opts, &|_| {}).0
 }

@@ -640,6 +640,7 @@ pub fn isoc_mesh(
         },
         smooth,
         domain: None,
+        creases: true,
     };
     isoc::mesher::mesh(&case.surface, &opts, &|_| {})
 }

@@ -1,0 +1,710 @@
+//! Sharp creases (issue 11, item 3). Where a crease of the surface — the
+//! edge or corner of a CSG `min`/`max` — crosses a dual cell, marching
+//! cubes cuts it off at cell scale: the cell's vertices lie on the cell's
+//! edges, on both sides of the crease, and its triangles join them by a
+//! chamfer. This pass puts a vertex on the crease and re-triangulates the
+//! cell's patch as a fan around it, then flips the edges between
+//! neighbouring fans so that the crease becomes a polyline of mesh edges
+//! (the "extended marching cubes" of Kobbelt, Botsch, Schwanecke & Seidel,
+//! *Feature sensitive surface extraction from volume data*, SIGGRAPH 2001,
+//! on the dual grid).
+//!
+//! # Contract
+//!
+//! A dual cell is sharpened when its patch is one disk whose vertices are
+//! all cell-edge vertices (no MC33 interior vertex), the surface normals at
+//! those vertices span more than [`SPLIT_DEG`] degrees (a crease between
+//! them), and
+//!
+//! 1. the feature point — the least-squares intersection of the vertices'
+//!    tangent planes (a quadratic error function solved from the vertices'
+//!    mean, directions of small curvature of the error truncated, so that
+//!    along a crease it stays at the mean) — lies in the cell's bounding
+//!    box, after sliding along the crease (its one free direction) into
+//!    the box when the mean's nearest crease point lies outside it;
+//! 2. moved onto `f = 0` ([`crate::roots::project`], to bisection
+//!    precision), it moves less than a tenth of the box's smallest side
+//!    and stays in the box, and it is a kink of f, not a bend: a fifth of
+//!    the way from it towards the two vertices whose normals differ most,
+//!    the gradients still differ by half the gap between the normals'
+//!    clusters (on a smooth patch they differ by about a fifth of the
+//!    normals' whole spread);
+//! 3. the fan — one triangle `(a, b, q)` per boundary edge `a → b` of the
+//!    patch, so it keeps the patch's orientation — has no degenerate
+//!    triangle and each triangle faces along the surface normals at `a`
+//!    and `b` (along their mean where `a–b` crosses the crease), after the
+//!    flips below;
+//! 4. the fan is closer to the surface than the patch: the largest
+//!    first-order distance `|f|/‖∇f‖` at its triangles' centroids is below
+//!    the patch's.
+//!
+//! Then every edge `a–b` shared by the fans of two different feature
+//! points `q₁`, `q₂` is flipped to `q₁–q₂` when that edge does not exist
+//! yet and both new triangles face along the normals at `a` and `b`; and,
+//! a few rounds, an edge `a–b` between a fan triangle `(a, b, q)` and a
+//! triangle `(b, a, c)` without feature point (a crease that leaves the
+//! cell next door through its side) is flipped to `q–c` when that edge is
+//! new, the new triangles face the right way and the larger first-order
+//! distance `|f|/‖∇f‖` at the two centroids drops.
+//!
+//! Hence the vertex set only grows, by feature points on the surface; a
+//! patch is replaced by a disk with the same boundary and orientation, and
+//! a flip re-triangulates a quadrilateral: components, Euler
+//! characteristic, genus, closedness and orientation are unchanged. The
+//! returned flags mark the feature points, which smoothing keeps in place
+//! and whose joining edges it never flips ([`super::smooth`]).
+//!
+//! # Limits
+//!
+//! Cells whose patch has several components or an MC33 tunnel are left as
+//! they are, and so are creases that need more than one feature point in
+//! a cell (two creases through one cell). A fan is tested against its own
+//! cell's surface normals and bounding box, not against other cells'
+//! triangles (no stage tests for self-intersection). The normals at
+//! feature points are the gradient there (one side's, where f has a kink),
+//! as for every vertex.
+
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
+use std::ops::Range;
+
+use glam::{DMat3, DVec3};
+use rayon::prelude::*;
+
+use crate::eval::Evaluator;
+use crate::eval::sample::grads_at;
+use crate::mesh::Mesh;
+use crate::roots::project;
+
+/// Normals of one cell marking a crease: they fall into two or three
+/// clusters at least this many degrees apart ...
+pub const SPLIT_DEG: f64 = 25.0;
+
+/// ... and that far apart by at least this many times the largest angle
+/// inside a cluster (a smooth patch, whose normals turn gradually, has no
+/// such gap).
+const GAP_RATIO: f64 = 3.0;
+
+/// The kink test looks at the gradient this fraction of the way from the
+/// feature point to two patch vertices.
+const NEAR: f64 = 0.2;
+
+/// Eigenvalues of the error's matrix below this share of the largest are
+/// truncated (directions along a crease, or the free directions of a flat
+/// patch).
+const TRUNCATE: f64 = 0.05;
+
+/// What [`sharpen`] did.
+#[derive(Clone, Debug, Default)]
+pub struct Creases {
+    /// Per vertex of the sharpened mesh: whether it is a feature point.
+    pub feature: Vec<bool>,
+    /// Cells whose patch became a fan around a feature point.
+    pub cells: usize,
+    /// Edges flipped to join two feature points.
+    pub flips: usize,
+}
+
+/// A sharpening candidate: the cell's triangles, its patch boundary (the
+/// cycle `a → b` in the patch's orientation), and the feature point on
+/// the surface.
+struct Candidate {
+    tris: Range<usize>,
+    boundary: Vec<(u32, u32)>,
+    point: DVec3,
+}
+
+/// Whether triangle `[a, b, c]` (positions `p`) is not degenerate and faces
+/// along the surface normals at `a` and `b`: along each of them when they
+/// lie on one side of a crease (within [`SPLIT_DEG`]), along their mean
+/// when the side `a–b` crosses the crease.
+fn faces(mesh: &Mesh, [a, b]: [u32; 2], p: [DVec3; 3]) -> bool {
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let n = e1.cross(e2);
+    let (na, nb) = (mesh.normals[a as usize], mesh.normals[b as usize]);
+    let one_side = na.dot(nb) > SPLIT_DEG.to_radians().cos();
+    n.length() > 1e-9 * e1.length() * e2.length()
+        && if one_side {
+            n.dot(na) > 0.0 && n.dot(nb) > 0.0
+        } else {
+            n.dot(na + nb) > 0.0
+        }
+}
+
+/// Sharpens the creases of `mesh` (see the module doc). `cell_of[i]` is the
+/// dual cell of triangle `i` (triangles of one cell consecutive), `bounds`
+/// a cell's bounding box (low and high corners).
+pub fn sharpen<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    cell_of: &[u32],
+    bounds: &(dyn Fn(u32) -> [DVec3; 2] + Sync),
+    f: &E,
+    t: f64,
+) -> Creases {
+    let n0 = mesh.positions.len();
+    let mut out = Creases {
+        feature: vec![false; n0],
+        ..Creases::default()
+    };
+    if cell_of.len() != mesh.triangles.len() {
+        return out;
+    }
+    // Runs of triangles of one cell.
+    let mut runs = Vec::new();
+    let mut start = 0;
+    for i in 1..=cell_of.len() {
+        if i == cell_of.len() || cell_of[i] != cell_of[start] {
+            runs.push(start..i);
+            start = i;
+        }
+    }
+    let mut candidates: Vec<Candidate> = runs
+        .into_par_iter()
+        .filter_map(|tris| {
+            let cell = cell_of[tris.start];
+            candidate(mesh, tris, bounds(cell), f, t)
+        })
+        .collect();
+    // Keep the candidates whose final triangles all face the right way,
+    // dropping failures until none is left: a fan edge shared with a
+    // neighbouring fan is flipped to join the two feature points when the
+    // two new triangles face the right way, and is kept otherwise.
+    let mut alive = vec![true; candidates.len()];
+    let mut owner: HashMap<(u32, u32), usize> = HashMap::default();
+    for (k, c) in candidates.iter().enumerate() {
+        for &e in &c.boundary {
+            owner.insert(e, k);
+        }
+    }
+    let pos = |v: u32| mesh.positions[v as usize];
+    let flip_ok = |a: u32, b: u32, q1: DVec3, q2: DVec3| {
+        faces(mesh, [a, a], [pos(a), q2, q1]) && faces(mesh, [b, b], [pos(b), q1, q2])
+    };
+    loop {
+        let failing: Vec<usize> = (0..candidates.len())
+            .into_par_iter()
+            .filter(|&k| alive[k])
+            .filter(|&k| {
+                let c = &candidates[k];
+                !c.boundary.iter().all(|&(a, b)| {
+                    let alone = faces(mesh, [a, b], [pos(a), pos(b), c.point]);
+                    match owner.get(&(b, a)) {
+                        Some(&d) if d != k && alive[d] => {
+                            let q2 = candidates[d].point;
+                            flip_ok(a, b, c.point, q2)
+                                || (alone && faces(mesh, [b, a], [pos(b), pos(a), q2]))
+                        }
+                        _ => alone,
+                    }
+                })
+            })
+            .collect();
+        if failing.is_empty() {
+            break;
+        }
+        for k in failing {
+            alive[k] = false;
+        }
+    }
+    let mut k = 0;
+    candidates.retain(|_| {
+        k += 1;
+        alive[k - 1]
+    });
+    if candidates.is_empty() {
+        return out;
+    }
+
+    // The new vertices and the fans in place of their patches.
+    let mut replaced = vec![false; mesh.triangles.len()];
+    let mut fans: Vec<[u32; 3]> = Vec::new();
+    for c in &candidates {
+        let q = mesh.positions.len() as u32;
+        let ambiguous = c.boundary.iter().any(|&(a, _)| mesh.ambiguous[a as usize]);
+        mesh.positions.push(c.point);
+        mesh.ambiguous.push(ambiguous);
+        mesh.normals.push(DVec3::ZERO);
+        out.feature.push(true);
+        for r in c.tris.clone() {
+            replaced[r] = true;
+        }
+        fans.extend(c.boundary.iter().map(|&(a, b)| [a, b, q]));
+    }
+    out.cells = candidates.len();
+    let new_points: Vec<DVec3> = mesh.positions[n0..].to_vec();
+    for (k, (_, g)) in grads_at(f, t, &new_points).into_iter().enumerate() {
+        mesh.normals[n0 + k] = g.normalize_or_zero();
+    }
+    let mut tris: Vec<[u32; 3]> = mesh
+        .triangles
+        .iter()
+        .zip(&replaced)
+        .filter(|(_, r)| !**r)
+        .map(|(t, _)| *t)
+        .collect();
+    let first_fan = tris.len();
+    tris.extend(fans);
+    mesh.triangles = tris;
+    out.flips = join_features(mesh, first_fan);
+    for _ in 0..ROUNDS {
+        let made = settle(mesh, &out.feature, f, t);
+        out.flips += made;
+        if made == 0 {
+            break;
+        }
+    }
+    out
+}
+
+/// Rounds of [`settle`].
+const ROUNDS: usize = 2;
+
+/// `|f| / ‖∇f‖` (a first-order distance to the surface) at each point;
+/// `+∞` where it is not a number.
+fn distances<E: Evaluator + ?Sized>(f: &E, t: f64, points: &[DVec3]) -> Vec<f64> {
+    grads_at(f, t, points)
+        .into_iter()
+        .map(|(v, g)| {
+            let d = v.abs() / g.length();
+            if d.is_nan() { f64::INFINITY } else { d }
+        })
+        .collect()
+}
+
+/// One round of flips of the edges `a–b` opposite a feature point `q` in a
+/// triangle `(a, b, q)` whose other triangle `(b, a, c)` does not hold a
+/// feature point (a crease crossing `a–b` next to a cell that has no
+/// feature point): to `q–c` when that edge does not exist, both new
+/// triangles face along the normals at their non-feature corners, and the
+/// larger first-order distance to the surface at the two centroids drops.
+/// Returns the flips made.
+fn settle<E: Evaluator + ?Sized>(mesh: &mut Mesh, feature: &[bool], f: &E, t: f64) -> usize {
+    let is_feature = |v: u32| feature.get(v as usize).copied().unwrap_or(false);
+    // The triangles around feature points, and the directed edges among
+    // their vertices (packed `a << 32 | b`, sorted, with their triangle).
+    let near: Vec<usize> = (0..mesh.triangles.len())
+        .filter(|&i| mesh.triangles[i].iter().any(|&v| is_feature(v)))
+        .collect();
+    let mut ring = vec![false; mesh.positions.len()];
+    for &i in &near {
+        for v in mesh.triangles[i] {
+            ring[v as usize] = true;
+        }
+    }
+    let key = |a: u32, b: u32| ((a as u64) << 32) | b as u64;
+    let mut edges: Vec<(u64, u32)> = mesh
+        .triangles
+        .par_iter()
+        .enumerate()
+        .filter(|(_, tri)| tri.iter().filter(|&&v| ring[v as usize]).count() >= 2)
+        .flat_map_iter(|(i, tri)| (0..3).map(move |k| (key(tri[k], tri[(k + 1) % 3]), i as u32)))
+        .collect();
+    edges.par_sort_unstable();
+    let find = |a: u32, b: u32| {
+        let k = key(a, b);
+        let at = edges.partition_point(|e| e.0 < k);
+        (edges.get(at).map(|e| e.0) == Some(k)).then(|| edges[at].1 as usize)
+    };
+    let joined = |u: u32, v: u32| find(u, v).is_some() || find(v, u).is_some();
+    // Candidate flips: (t1, t2, [a, b, q, c]).
+    let mut cands: Vec<(usize, usize, [u32; 4])> = Vec::new();
+    for &i in &near {
+        let tri = mesh.triangles[i];
+        let Some(k) = (0..3).find(|&k| is_feature(tri[(k + 2) % 3])) else {
+            continue;
+        };
+        let (a, b, q) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
+        if is_feature(a) || is_feature(b) {
+            continue;
+        }
+        let Some(j) = find(b, a) else {
+            continue;
+        };
+        let other = mesh.triangles[j];
+        let Some(c) = other.iter().copied().find(|&v| v != a && v != b) else {
+            continue;
+        };
+        if is_feature(c) || c == q || joined(q, c) {
+            continue;
+        }
+        let pos = |v: u32| mesh.positions[v as usize];
+        let ok = faces(mesh, [a, c], [pos(a), pos(c), pos(q)])
+            && faces(mesh, [c, b], [pos(c), pos(b), pos(q)]);
+        if ok {
+            cands.push((i, j, [a, b, q, c]));
+        }
+    }
+    if cands.is_empty() {
+        return 0;
+    }
+    let centroid = |t: [u32; 3]| t.iter().map(|&v| mesh.positions[v as usize]).sum::<DVec3>() / 3.0;
+    let points: Vec<DVec3> = cands
+        .iter()
+        .flat_map(|&(i, j, [a, b, q, c])| {
+            [
+                centroid(mesh.triangles[i]),
+                centroid(mesh.triangles[j]),
+                centroid([a, c, q]),
+                centroid([c, b, q]),
+            ]
+        })
+        .collect();
+    let d = distances(f, t, &points);
+    let mut gain: Vec<(f64, usize)> = (0..cands.len())
+        .filter_map(|k| {
+            let old = d[4 * k].max(d[4 * k + 1]);
+            let new = d[4 * k + 2].max(d[4 * k + 3]);
+            (new < old).then_some((old - new, k))
+        })
+        .collect();
+    gain.sort_by(|x, y| y.0.total_cmp(&x.0));
+    let mut touched = vec![false; mesh.triangles.len()];
+    let mut made: HashSet<(u32, u32)> = HashSet::default();
+    let mut flips = 0;
+    for (_, k) in gain {
+        let (i, j, [a, b, q, c]) = cands[k];
+        if touched[i] || touched[j] || !made.insert((q.min(c), q.max(c))) {
+            continue;
+        }
+        // Old: (a, b, q) and (b, a, c); new: (a, c, q) and (c, b, q).
+        mesh.triangles[i] = [a, c, q];
+        mesh.triangles[j] = [c, b, q];
+        touched[i] = true;
+        touched[j] = true;
+        flips += 1;
+    }
+    flips
+}
+
+/// The gap between the clusters when unit normals fall into two or three
+/// clusters more than [`SPLIT_DEG`] apart, that gap [`GAP_RATIO`] times
+/// the largest angle inside a cluster; and the two normals farthest apart.
+fn crease_gap(normals: &[DVec3]) -> Option<(f64, [usize; 2])> {
+    let angle = |a: DVec3, b: DVec3| a.dot(b).clamp(-1.0, 1.0).acos();
+    let mut far = (0, 0, -1.0);
+    for (i, a) in normals.iter().enumerate() {
+        for (j, b) in normals.iter().enumerate().skip(i + 1) {
+            let d = angle(*a, *b);
+            if d > far.2 {
+                far = (i, j, d);
+            }
+        }
+    }
+    let split = SPLIT_DEG.to_radians();
+    if far.2 < split {
+        return None;
+    }
+    let mut seeds = vec![normals[far.0], normals[far.1]];
+    for n in normals {
+        if seeds.len() < 3 && seeds.iter().all(|s| angle(*s, *n) > split) {
+            seeds.push(*n);
+        }
+    }
+    let cluster: Vec<usize> = normals
+        .iter()
+        .map(|n| {
+            (0..seeds.len())
+                .min_by(|&i, &j| angle(seeds[i], *n).total_cmp(&angle(seeds[j], *n)))
+                .unwrap_or(0)
+        })
+        .collect();
+    let (mut inside, mut across) = (0.0_f64, f64::INFINITY);
+    for (i, a) in normals.iter().enumerate() {
+        for (j, b) in normals.iter().enumerate().skip(i + 1) {
+            let d = angle(*a, *b);
+            if cluster[i] == cluster[j] {
+                inside = inside.max(d);
+            } else {
+                across = across.min(d);
+            }
+        }
+    }
+    (across > split && across > GAP_RATIO * inside).then_some((across, [far.0, far.1]))
+}
+
+/// The sharpening candidate of one cell's triangles, or `None` (steps 1
+/// and 2 of the module doc).
+fn candidate<E: Evaluator + ?Sized>(
+    mesh: &Mesh,
+    tris: Range<usize>,
+    [lo, hi]: [DVec3; 2],
+    f: &E,
+    t: f64,
+) -> Option<Candidate> {
+    let patch = &mesh.triangles[tris.clone()];
+    // Most cells are smooth: their normals all lie within half the split
+    // angle of the first one (so within the split angle of each other).
+    let n0 = mesh.normals[patch[0][0] as usize];
+    let cos_half = (0.5 * SPLIT_DEG).to_radians().cos();
+    if patch
+        .iter()
+        .flatten()
+        .all(|&v| mesh.normals[v as usize].dot(n0) >= cos_half)
+    {
+        return None;
+    }
+    // One disk: boundary edges (directed, not matched by their reverse)
+    // forming one cycle through every vertex, and V − E + F = 1.
+    let mut verts: Vec<u32> = patch.iter().flatten().copied().collect();
+    verts.sort_unstable();
+    verts.dedup();
+    let directed: Vec<(u32, u32)> = patch
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .collect();
+    let boundary: Vec<(u32, u32)> = directed
+        .iter()
+        .copied()
+        .filter(|&(a, b)| !directed.contains(&(b, a)))
+        .collect();
+    if boundary.len() != verts.len()
+        || !(3 * patch.len() + boundary.len()).is_multiple_of(2)
+        || verts.len() + patch.len() != (3 * patch.len() + boundary.len()) / 2 + 1
+    {
+        return None;
+    }
+    let mut cycle = Vec::with_capacity(boundary.len());
+    let mut at = boundary[0].0;
+    for _ in 0..boundary.len() {
+        let next = boundary.iter().find(|e| e.0 == at)?;
+        cycle.push(*next);
+        at = next.1;
+    }
+    let mut starts: Vec<u32> = cycle.iter().map(|e| e.0).collect();
+    starts.sort_unstable();
+    if at != boundary[0].0 || starts != verts {
+        return None;
+    }
+    // A crease: the normals fall into clusters.
+    let normals: Vec<DVec3> = verts.iter().map(|&v| mesh.normals[v as usize]).collect();
+    if normals
+        .iter()
+        .any(|n| !n.is_finite() || (n.length_squared() - 1.0).abs() > 1e-6)
+    {
+        return None;
+    }
+    let (gap, far) = crease_gap(&normals)?;
+    // The feature point: the tangent planes' least-squares intersection.
+    let pos: Vec<DVec3> = verts.iter().map(|&v| mesh.positions[v as usize]).collect();
+    let mean = pos.iter().copied().sum::<DVec3>() / pos.len() as f64;
+    let mut a = DMat3::ZERO;
+    let mut r = DVec3::ZERO;
+    for (n, p) in normals.iter().zip(&pos) {
+        a += DMat3::from_cols(*n * n.x, *n * n.y, *n * n.z);
+        r += *n * n.dot(*p - mean);
+    }
+    let (x, free) = truncated_solve(a, r);
+    let mut p = mean + x;
+    let inside = |x: DVec3| x.cmpge(lo).all() && x.cmple(hi).all();
+    // Along a crease (one free direction) the point may slide along it
+    // into the box.
+    if free.len() == 1 && p.is_finite() && !inside(p) {
+        p = slide_into(p, free[0], lo, hi)?;
+    }
+    if !p.is_finite() || !inside(p) {
+        return None;
+    }
+    let side = (hi - lo).min_element();
+    let q = project(f, t, p, 0.1 * side)?;
+    if !inside(q) || q.distance(p) > 0.1 * side {
+        return None;
+    }
+    // A kink, not a bend: near the feature point, towards the two
+    // vertices whose normals differ most, the gradient still turns by at
+    // least half the normals' gap (on a smooth surface it turns by a
+    // fraction NEAR of the patch's whole turn).
+    let [i, j] = far;
+    let towards = |v: DVec3| {
+        let x = q + (v - q) * NEAR;
+        let (_, g) = f.point_grad([x.x, x.y, x.z, t]);
+        DVec3::from_array(g).normalize_or_zero()
+    };
+    let (gi, gj) = (towards(pos[i]), towards(pos[j]));
+    if gi.length_squared() < 0.5
+        || gj.length_squared() < 0.5
+        || gi.dot(gj).clamp(-1.0, 1.0).acos() < 0.5 * gap
+    {
+        return None;
+    }
+    Some(Candidate {
+        tris,
+        boundary: cycle,
+        point: q,
+    })
+}
+
+/// `x` minimising `|a x − r|` in the eigenvector basis of the symmetric
+/// `a`, with the components along eigenvalues below [`TRUNCATE`] × the
+/// largest set to 0 (the smallest such `x`), and the truncated directions.
+fn truncated_solve(a: DMat3, r: DVec3) -> (DVec3, Vec<DVec3>) {
+    let (values, vectors) = symmetric_eigen(a);
+    let top = values.iter().copied().fold(0.0, f64::max);
+    if top.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return (DVec3::ZERO, vectors.to_vec());
+    }
+    let kept = |k: &usize| values[*k] > TRUNCATE * top;
+    let x = (0..3)
+        .filter(kept)
+        .map(|k| vectors[k] * (vectors[k].dot(r) / values[k]))
+        .sum();
+    (x, (0..3).filter(|k| !kept(k)).map(|k| vectors[k]).collect())
+}
+
+/// `p + s d` for the `s` nearest 0 that puts it in the box `[lo, hi]`, or
+/// `None` when the line misses the box.
+fn slide_into(p: DVec3, d: DVec3, lo: DVec3, hi: DVec3) -> Option<DVec3> {
+    let (mut s0, mut s1) = (f64::NEG_INFINITY, f64::INFINITY);
+    for k in 0..3 {
+        if d[k].abs() < 1e-12 {
+            if p[k] < lo[k] || p[k] > hi[k] {
+                return None;
+            }
+            continue;
+        }
+        let (a, b) = ((lo[k] - p[k]) / d[k], (hi[k] - p[k]) / d[k]);
+        s0 = s0.max(a.min(b));
+        s1 = s1.min(a.max(b));
+    }
+    (s0 <= s1).then(|| p + d * 0.0_f64.clamp(s0, s1))
+}
+
+/// Eigenvalues and unit eigenvectors of a symmetric 3 × 3 matrix (cyclic
+/// Jacobi rotations).
+fn symmetric_eigen(a: DMat3) -> ([f64; 3], [DVec3; 3]) {
+    let mut m = [
+        [a.x_axis.x, a.y_axis.x, a.z_axis.x],
+        [a.x_axis.y, a.y_axis.y, a.z_axis.y],
+        [a.x_axis.z, a.y_axis.z, a.z_axis.z],
+    ];
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _ in 0..32 {
+        let off = m[0][1].abs() + m[0][2].abs() + m[1][2].abs();
+        let diag = m[0][0].abs() + m[1][1].abs() + m[2][2].abs();
+        if off <= 1e-15 * diag || off == 0.0 {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if m[p][q] == 0.0 {
+                continue;
+            }
+            let theta = (m[q][q] - m[p][p]) / (2.0 * m[p][q]);
+            let tan = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let c = 1.0 / (tan * tan + 1.0).sqrt();
+            let s = tan * c;
+            for row in &mut m {
+                let (mkp, mkq) = (row[p], row[q]);
+                row[p] = c * mkp - s * mkq;
+                row[q] = s * mkp + c * mkq;
+            }
+            let (rp, rq) = (m[p], m[q]);
+            m[p] = std::array::from_fn(|k| c * rp[k] - s * rq[k]);
+            m[q] = std::array::from_fn(|k| s * rp[k] + c * rq[k]);
+            for row in &mut v {
+                let (vp, vq) = (row[p], row[q]);
+                row[p] = c * vp - s * vq;
+                row[q] = s * vp + c * vq;
+            }
+        }
+    }
+    let col = |k: usize| DVec3::new(v[0][k], v[1][k], v[2][k]);
+    ([m[0][0], m[1][1], m[2][2]], [col(0), col(1), col(2)])
+}
+
+/// Flips the edges between fans of two different feature points (the
+/// triangles from `first_fan` on, each `[a, b, q]` with `a → b` on its
+/// cell's boundary) to join the feature points; returns the flips made.
+fn join_features(mesh: &mut Mesh, first_fan: usize) -> usize {
+    let by_edge: HashMap<(u32, u32), usize> = (first_fan..mesh.triangles.len())
+        .map(|i| {
+            let [a, b, _] = mesh.triangles[i];
+            ((a, b), i)
+        })
+        .collect();
+    let mut joined: HashSet<(u32, u32)> = HashSet::default();
+    let mut flipped = vec![false; mesh.triangles.len()];
+    let mut flips = 0;
+    for i in first_fan..mesh.triangles.len() {
+        if flipped[i] {
+            continue;
+        }
+        let [a, b, q1] = mesh.triangles[i];
+        let Some(&j) = by_edge.get(&(b, a)) else {
+            continue;
+        };
+        if j < i || flipped[j] {
+            continue;
+        }
+        let [b2, a2, q2] = mesh.triangles[j];
+        if (b2, a2) != (b, a) || q1 == q2 || !joined.insert((q1.min(q2), q1.max(q2))) {
+            continue;
+        }
+        let new = [[a, q2, q1], [b, q1, q2]];
+        let at = |t: [u32; 3]| t.map(|v| mesh.positions[v as usize]);
+        if faces(mesh, [a, a], at(new[0])) && faces(mesh, [b, b], at(new[1])) {
+            mesh.triangles[i] = new[0];
+            mesh.triangles[j] = new[1];
+            flipped[i] = true;
+            flipped[j] = true;
+            flips += 1;
+        } else {
+            joined.remove(&(q1.min(q2), q1.max(q2)));
+        }
+    }
+    flips
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eigen_decomposition_reconstructs_symmetric_matrices() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for _ in 0..200 {
+            let (a, b, c, d, e, f) = (next(), next(), next(), next(), next(), next());
+            let m = DMat3::from_cols(
+                DVec3::new(a, b, c),
+                DVec3::new(b, d, e),
+                DVec3::new(c, e, f),
+            );
+            let (values, vectors) = symmetric_eigen(m);
+            for k in 0..3 {
+                let (lambda, v) = (values[k], vectors[k]);
+                assert!((v.length() - 1.0).abs() < 1e-12);
+                assert!((m * v - v * lambda).length() < 1e-10, "{m:?}");
+                for w in &vectors[..k] {
+                    assert!(v.dot(*w).abs() < 1e-10);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_truncated_solve_meets_two_planes_on_their_line() {
+        // Planes x = 1 and y = 2 (normals X and Y): the crease is the line
+        // (1, 2, z); from the origin the solve stays at z = 0.
+        let (n1, n2) = (DVec3::X, DVec3::Y);
+        let (p1, p2) = (DVec3::new(1.0, 0.0, 5.0), DVec3::new(0.0, 2.0, -5.0));
+        let mut a = DMat3::ZERO;
+        let mut r = DVec3::ZERO;
+        for (n, p) in [(n1, p1), (n2, p2)] {
+            a += DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+            r += n * n.dot(p);
+        }
+        let (x, free) = truncated_solve(a, r);
+        assert!((x - DVec3::new(1.0, 2.0, 0.0)).length() < 1e-12, "{x}");
+        assert_eq!(free.len(), 1);
+        assert!(free[0].cross(DVec3::Z).length() < 1e-12);
+        // Slid along the crease into a box above it.
+        let lo = DVec3::new(0.0, 0.0, 3.0);
+        let hi = DVec3::new(2.0, 3.0, 4.0);
+        let p = slide_into(x, free[0], lo, hi).unwrap();
+        assert!((p - DVec3::new(1.0, 2.0, 3.0)).length() < 1e-12, "{p}");
+        assert!(slide_into(x, free[0], lo + DVec3::X * 1.5, hi).is_none());
+    }
+}

@@ -1,0 +1,233 @@
+//! Sharp creases (`isoc::mesher::crease`) against exact distances: a
+//! rotated cube (12 edges, 8 corners) and a union of two balls (a crease
+//! circle) keep their creases — the triangles come much closer to the
+//! surface than marching cubes' chamfers, with vertices on the creases —
+//! while topology, closedness and vertices on the surface are those of
+//! the mesh without creases; smooth surfaces are left exactly as they are.
+
+use glam::DVec3;
+use isoc::mesh::Mesh;
+use isoc::{MeshOptions, MeshReport, OctreeOptions, Surface};
+
+use crate::support::surface;
+
+/// A mesh on the uniform octree of `level` (equal cells, so chord errors
+/// compare at equal cell size).
+fn mesh(s: &Surface, level: u8, creases: bool) -> (Mesh, MeshReport) {
+    let opts = MeshOptions {
+        octree: OctreeOptions {
+            max_level: level,
+            min_level: level,
+            ..OctreeOptions::default()
+        },
+        creases,
+        ..MeshOptions::default()
+    };
+    isoc::mesher::mesh(s, &opts, &|_| {})
+}
+
+/// The cube's rotation: about z by atan(3/4), then about x by atan(5/12).
+fn rotate(p: DVec3) -> DVec3 {
+    let (x, y, z) = (p.x, p.y, p.z);
+    let (u, v) = (0.8 * x + 0.6 * y, -0.6 * x + 0.8 * y);
+    DVec3::new(u, (12.0 * v + 5.0 * z) / 13.0, (-5.0 * v + 12.0 * z) / 13.0)
+}
+
+const CUBE: &str = "domain [-1, 1]^3;
+let u = 0.8*x + 0.6*y;
+let v = -0.6*x + 0.8*y;
+let w = (12*v + 5*z) / 13;
+let s = (-5*v + 12*z) / 13;
+surface max(max(abs(u), abs(w)), abs(s)) = 0.5;";
+
+/// Exact distance from `p` to the surface of the rotated cube of half
+/// side 0.5.
+fn cube_distance(p: DVec3) -> f64 {
+    let q = rotate(p).abs();
+    let out = (q - DVec3::splat(0.5)).max(DVec3::ZERO);
+    if out.length() > 0.0 {
+        out.length()
+    } else {
+        (DVec3::splat(0.5) - q).min_element()
+    }
+}
+
+/// Exact distance to the union of the balls of radius 0.5 at (±0.3, 0, 0).
+fn balls_distance(p: DVec3) -> f64 {
+    let (a, b) = (DVec3::new(-0.3, 0.0, 0.0), DVec3::new(0.3, 0.0, 0.0));
+    let (da, db) = (p.distance(a) - 0.5, p.distance(b) - 0.5);
+    let d = da.min(db);
+    if d >= 0.0 {
+        return d;
+    }
+    // Inside: the nearest boundary point is on a sphere, outside the other
+    // ball, or on the crease circle (x = 0, radius 0.4).
+    let on_sphere = |c: DVec3, other: DVec3| {
+        let q = c + (p - c).normalize_or(DVec3::X) * 0.5;
+        (q.distance(other) >= 0.5).then(|| p.distance(q))
+    };
+    let ring = {
+        let r = (p.y * p.y + p.z * p.z).sqrt();
+        let dir = if r > 0.0 {
+            DVec3::new(0.0, p.y / r, p.z / r)
+        } else {
+            DVec3::Y
+        };
+        p.distance(dir * 0.4)
+    };
+    [on_sphere(a, b), on_sphere(b, a), Some(ring)]
+        .into_iter()
+        .flatten()
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The distances from the triangles' centroids to the surface, sorted.
+fn chord_errors(m: &Mesh, distance: impl Fn(DVec3) -> f64) -> Vec<f64> {
+    let mut e: Vec<f64> = m
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            distance((a + b + c) / 3.0).abs()
+        })
+        .collect();
+    e.sort_by(f64::total_cmp);
+    e
+}
+
+/// The `p`-quantile of sorted values.
+fn quantile(sorted: &[f64], p: f64) -> f64 {
+    sorted[((sorted.len() - 1) as f64 * p) as usize]
+}
+
+fn check_same_topology(sharp: &MeshReport, plain: &MeshReport) {
+    assert!(sharp.topology.watertight, "{:?}", sharp.topology);
+    assert_eq!(sharp.topology.components, plain.topology.components);
+    assert_eq!(sharp.topology.euler, plain.topology.euler);
+    assert_eq!(sharp.topology.genus, plain.topology.genus);
+    assert_eq!(sharp.topology.misoriented_edges, 0);
+}
+
+#[test]
+fn a_cube_keeps_its_edges_and_corners() {
+    let s = surface(CUBE);
+    let (plain, rp) = mesh(&s, 6, false);
+    let (sharp, rs) = mesh(&s, 6, true);
+    check_same_topology(&rs, &rp);
+    assert_eq!(rs.topology.genus, vec![Some(0)]);
+    for p in &sharp.positions {
+        assert!(cube_distance(*p).abs() < 1e-9, "vertex off the cube: {p}");
+    }
+    let (e_plain, e_sharp) = (
+        chord_errors(&plain, cube_distance),
+        chord_errors(&sharp, cube_distance),
+    );
+    // Leaves of level 6 are 1/32 wide: the chamfers stray a fair part of
+    // that (more than 1 % of the triangles by over 0.005); with creases all
+    // but a few cells' triangles lie on the faces.
+    let (p_plain, p_sharp) = (quantile(&e_plain, 0.99), quantile(&e_sharp, 0.99));
+    assert!(p_plain > 0.005, "chamfer error {p_plain}");
+    assert!(p_sharp < 1e-9, "99th percentile {p_sharp} with creases");
+    assert!(
+        e_sharp.last() <= e_plain.last(),
+        "the worst triangle got worse"
+    );
+    // Vertices on the 12 edges (two faces within rounding): about one per
+    // cell along each edge (length 1, cells 1/32).
+    let on_edge = sharp
+        .positions
+        .iter()
+        .filter(|p| {
+            let q = rotate(**p).abs();
+            [q.x, q.y, q.z]
+                .iter()
+                .filter(|c| (**c - 0.5).abs() < 1e-6)
+                .count()
+                >= 2
+        })
+        .count();
+    assert!(on_edge >= 12 * 24, "{on_edge} vertices on the cube's edges");
+    assert_eq!(
+        rs.crease_vertices,
+        sharp.positions.len() - plain.positions.len()
+    );
+    // Every corner has a vertex within a tenth of a cell.
+    for k in 0..8 {
+        let c = DVec3::new(
+            if k & 1 == 0 { -0.5 } else { 0.5 },
+            if k & 2 == 0 { -0.5 } else { 0.5 },
+            if k & 4 == 0 { -0.5 } else { 0.5 },
+        );
+        let nearest = sharp
+            .positions
+            .iter()
+            .map(|p| rotate(*p).distance(c))
+            .fold(f64::INFINITY, f64::min);
+        assert!(nearest < 0.1 / 32.0, "corner {c}: nearest vertex {nearest}");
+    }
+}
+
+#[test]
+fn a_union_of_balls_keeps_its_crease_circle() {
+    let s = surface(
+        "domain [-1, 1]^3;
+         surface min(sqrt((x + 0.3)^2 + y^2 + z^2), sqrt((x - 0.3)^2 + y^2 + z^2)) = 0.5;",
+    );
+    let (plain, rp) = mesh(&s, 6, false);
+    let (sharp, rs) = mesh(&s, 6, true);
+    check_same_topology(&rs, &rp);
+    assert_eq!(rs.topology.genus, vec![Some(0)]);
+    for p in &sharp.positions {
+        assert!(
+            balls_distance(*p).abs() < 1e-9,
+            "vertex off the surface: {p}"
+        );
+    }
+    let (e_plain, e_sharp) = (
+        chord_errors(&plain, balls_distance),
+        chord_errors(&sharp, balls_distance),
+    );
+    let (p_plain, p_sharp) = (quantile(&e_plain, 0.99), quantile(&e_sharp, 0.99));
+    assert!(
+        p_sharp < 0.25 * p_plain,
+        "99th percentile {p_sharp} vs {p_plain} without creases"
+    );
+    assert!(
+        e_sharp.last() <= e_plain.last(),
+        "the worst triangle got worse"
+    );
+    // Feature points on the crease circle x = 0, r = 0.4 (circumference
+    // 2.5, cells 1/32), within a tenth of a cell.
+    let features = &sharp.positions[plain.positions.len()..];
+    assert_eq!(features.len(), rs.crease_vertices);
+    assert!(features.len() >= 40, "{} feature points", features.len());
+    for p in features {
+        let ring = (p.x * p.x + ((p.y * p.y + p.z * p.z).sqrt() - 0.4).powi(2)).sqrt();
+        assert!(
+            ring < 0.1 / 32.0,
+            "feature point {p} is {ring} off the crease"
+        );
+    }
+}
+
+#[test]
+fn smooth_surfaces_are_left_as_they_are() {
+    for (src, level) in [
+        ("domain [-1.5, 1.5]^3; surface x^2 + y^2 + z^2 = 1;", 5),
+        (
+            "domain [-2, 2]^3; surface (sqrt(x^2 + y^2) - 1)^2 + z^2 = 0.15;",
+            6,
+        ),
+        (
+            "domain [-2, 2]^3; surface x^4 + y^4 + z^4 - 2*(x^2 + y^2 + z^2) + 1.2 = 0;",
+            6,
+        ),
+    ] {
+        let s = surface(src);
+        let (plain, _) = mesh(&s, level, false);
+        let (sharp, rs) = mesh(&s, level, true);
+        assert_eq!(rs.crease_vertices, 0, "{src}");
+        assert_eq!(plain.triangles, sharp.triangles, "{src}");
+        assert_eq!(plain.positions, sharp.positions, "{src}");
+    }
+}
