@@ -16,6 +16,7 @@ use super::{BinOp, UnOp};
 use crate::interval::{self, Interval};
 
 /// `op(a)` in f64 with the IR's point semantics (NaN outside the domain).
+#[inline]
 pub fn point_unary(op: UnOp, a: f64) -> f64 {
     match op {
         UnOp::Neg => -a,
@@ -70,6 +71,7 @@ pub fn point_unary(op: UnOp, a: f64) -> f64 {
 }
 
 /// `op(a, b)` in f64 with the IR's point semantics.
+#[inline]
 pub fn point_binary(op: BinOp, a: f64, b: f64) -> f64 {
     match op {
         BinOp::Add => a + b,
@@ -156,6 +158,7 @@ pub fn point_binary(op: BinOp, a: f64, b: f64) -> f64 {
 /// each later one, the base being squared (`base · base`) per bit. `n = 0`
 /// gives 1 for every `a` (NaN included); `n < 0` gives `1 / a^|n|`, NaN when
 /// that divides by zero.
+#[inline]
 pub fn point_powi(a: f64, n: i64) -> f64 {
     if n == 0 {
         return 1.0;

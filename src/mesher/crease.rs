@@ -40,8 +40,8 @@
 //!
 //! Then every edge `a–b` shared by the fans of two different feature
 //! points `q₁`, `q₂` is flipped to `q₁–q₂` when that edge does not exist
-//! yet and both new triangles face along the normals at `a` and `b`; and,
-//! a few rounds, an edge `a–b` between a fan triangle `(a, b, q)` and a
+//! yet and both new triangles face along the normals at `a` and `b`; and
+//! an edge `a–b` across the crease between a fan triangle `(a, b, q)` and a
 //! triangle `(b, a, c)` without feature point (a crease that leaves the
 //! cell next door through its side) is flipped to `q–c` when that edge is
 //! new, the new triangles face the right way and the larger first-order
@@ -161,7 +161,7 @@ pub fn sharpen<E: Evaluator + ?Sized>(
         .into_par_iter()
         .filter_map(|tris| {
             let cell = cell_of[tris.start];
-            candidate(mesh, tris, bounds(cell), f, t)
+            candidate(mesh, tris, &|| bounds(cell), f, t)
         })
         .collect();
     // Keep the candidates whose final triangles all face the right way,
@@ -245,18 +245,9 @@ pub fn sharpen<E: Evaluator + ?Sized>(
     tris.extend(fans);
     mesh.triangles = tris;
     out.flips = join_features(mesh, first_fan);
-    for _ in 0..ROUNDS {
-        let made = settle(mesh, &out.feature, f, t);
-        out.flips += made;
-        if made == 0 {
-            break;
-        }
-    }
+    out.flips += settle(mesh, &out.feature, f, t);
     out
 }
-
-/// Rounds of [`settle`].
-const ROUNDS: usize = 2;
 
 /// `|f| / ‖∇f‖` (a first-order distance to the surface) at each point;
 /// `+∞` where it is not a number.
@@ -270,15 +261,17 @@ fn distances<E: Evaluator + ?Sized>(f: &E, t: f64, points: &[DVec3]) -> Vec<f64>
         .collect()
 }
 
-/// One round of flips of the edges `a–b` opposite a feature point `q` in a
+/// Flips of the edges `a–b` opposite a feature point `q` in a
 /// triangle `(a, b, q)` whose other triangle `(b, a, c)` does not hold a
-/// feature point (a crease crossing `a–b` next to a cell that has no
-/// feature point): to `q–c` when that edge does not exist, both new
+/// feature point, where `a–b` crosses the crease (the normals at `a` and
+/// `b` differ by more than [`SPLIT_DEG`]; a crease leaving through a cell
+/// that has no feature point): to `q–c` when that edge does not exist, both new
 /// triangles face along the normals at their non-feature corners, and the
 /// larger first-order distance to the surface at the two centroids drops.
 /// Returns the flips made.
 fn settle<E: Evaluator + ?Sized>(mesh: &mut Mesh, feature: &[bool], f: &E, t: f64) -> usize {
     let is_feature = |v: u32| feature.get(v as usize).copied().unwrap_or(false);
+    let cos_split = SPLIT_DEG.to_radians().cos();
     // The triangles around feature points, and the directed edges among
     // their vertices (packed `a << 32 | b`, sorted, with their triangle).
     let near: Vec<usize> = (0..mesh.triangles.len())
@@ -313,7 +306,11 @@ fn settle<E: Evaluator + ?Sized>(mesh: &mut Mesh, feature: &[bool], f: &E, t: f6
             continue;
         };
         let (a, b, q) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
-        if is_feature(a) || is_feature(b) {
+        // Only sides that cross the crease (their ends on two sides of it).
+        if is_feature(a)
+            || is_feature(b)
+            || mesh.normals[a as usize].dot(mesh.normals[b as usize]) >= cos_split
+        {
             continue;
         }
         let Some(j) = find(b, a) else {
@@ -379,23 +376,24 @@ fn settle<E: Evaluator + ?Sized>(mesh: &mut Mesh, feature: &[bool], f: &E, t: f6
 /// clusters more than [`SPLIT_DEG`] apart, that gap [`GAP_RATIO`] times
 /// the largest angle inside a cluster; and the two normals farthest apart.
 fn crease_gap(normals: &[DVec3]) -> Option<(f64, [usize; 2])> {
-    let angle = |a: DVec3, b: DVec3| a.dot(b).clamp(-1.0, 1.0).acos();
-    let mut far = (0, 0, -1.0);
+    // Compared as dot products (cosines) until the end.
+    let mut far = (0, 0, 2.0);
     for (i, a) in normals.iter().enumerate() {
         for (j, b) in normals.iter().enumerate().skip(i + 1) {
-            let d = angle(*a, *b);
-            if d > far.2 {
+            let d = a.dot(*b);
+            if d < far.2 {
                 far = (i, j, d);
             }
         }
     }
     let split = SPLIT_DEG.to_radians();
-    if far.2 < split {
+    let cos_split = split.cos();
+    if far.2 > cos_split {
         return None;
     }
     let mut seeds = vec![normals[far.0], normals[far.1]];
     for n in normals {
-        if seeds.len() < 3 && seeds.iter().all(|s| angle(*s, *n) > split) {
+        if seeds.len() < 3 && seeds.iter().all(|s| s.dot(*n) < cos_split) {
             seeds.push(*n);
         }
     }
@@ -403,21 +401,23 @@ fn crease_gap(normals: &[DVec3]) -> Option<(f64, [usize; 2])> {
         .iter()
         .map(|n| {
             (0..seeds.len())
-                .min_by(|&i, &j| angle(seeds[i], *n).total_cmp(&angle(seeds[j], *n)))
+                .max_by(|&i, &j| seeds[i].dot(*n).total_cmp(&seeds[j].dot(*n)))
                 .unwrap_or(0)
         })
         .collect();
-    let (mut inside, mut across) = (0.0_f64, f64::INFINITY);
+    let (mut inside, mut across) = (1.0_f64, -1.0_f64);
     for (i, a) in normals.iter().enumerate() {
         for (j, b) in normals.iter().enumerate().skip(i + 1) {
-            let d = angle(*a, *b);
+            let d = a.dot(*b);
             if cluster[i] == cluster[j] {
-                inside = inside.max(d);
+                inside = inside.min(d);
             } else {
-                across = across.min(d);
+                across = across.max(d);
             }
         }
     }
+    let angle = |c: f64| c.clamp(-1.0, 1.0).acos();
+    let (inside, across) = (angle(inside), angle(across));
     (across > split && across > GAP_RATIO * inside).then_some((across, [far.0, far.1]))
 }
 
@@ -426,7 +426,7 @@ fn crease_gap(normals: &[DVec3]) -> Option<(f64, [usize; 2])> {
 fn candidate<E: Evaluator + ?Sized>(
     mesh: &Mesh,
     tris: Range<usize>,
-    [lo, hi]: [DVec3; 2],
+    bounds: &dyn Fn() -> [DVec3; 2],
     f: &E,
     t: f64,
 ) -> Option<Candidate> {
@@ -442,11 +442,20 @@ fn candidate<E: Evaluator + ?Sized>(
     {
         return None;
     }
-    // One disk: boundary edges (directed, not matched by their reverse)
-    // forming one cycle through every vertex, and V − E + F = 1.
     let mut verts: Vec<u32> = patch.iter().flatten().copied().collect();
     verts.sort_unstable();
     verts.dedup();
+    // A crease: the normals fall into clusters.
+    let normals: Vec<DVec3> = verts.iter().map(|&v| mesh.normals[v as usize]).collect();
+    if normals
+        .iter()
+        .any(|n| !n.is_finite() || (n.length_squared() - 1.0).abs() > 1e-6)
+    {
+        return None;
+    }
+    let (gap, far) = crease_gap(&normals)?;
+    // One disk: boundary edges (directed, not matched by their reverse)
+    // forming one cycle through every vertex, and V − E + F = 1.
     let directed: Vec<(u32, u32)> = patch
         .iter()
         .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
@@ -474,16 +483,8 @@ fn candidate<E: Evaluator + ?Sized>(
     if at != boundary[0].0 || starts != verts {
         return None;
     }
-    // A crease: the normals fall into clusters.
-    let normals: Vec<DVec3> = verts.iter().map(|&v| mesh.normals[v as usize]).collect();
-    if normals
-        .iter()
-        .any(|n| !n.is_finite() || (n.length_squared() - 1.0).abs() > 1e-6)
-    {
-        return None;
-    }
-    let (gap, far) = crease_gap(&normals)?;
     // The feature point: the tangent planes' least-squares intersection.
+    let [lo, hi] = bounds();
     let pos: Vec<DVec3> = verts.iter().map(|&v| mesh.positions[v as usize]).collect();
     let mean = pos.iter().copied().sum::<DVec3>() / pos.len() as f64;
     let mut a = DMat3::ZERO;

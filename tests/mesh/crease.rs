@@ -231,3 +231,44 @@ fn smooth_surfaces_are_left_as_they_are() {
         assert_eq!(plain.positions, sharp.positions, "{src}");
     }
 }
+
+/// The table of `docs/creases.md`: chord errors (exact distances from the
+/// triangles' centroids) with and without creases, on uniform octrees of
+/// levels 5–7. Run with
+/// `cargo test --release --test mesh crease::report -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn report() {
+    type Distance = fn(DVec3) -> f64;
+    let balls = "domain [-1, 1]^3;
+        surface min(sqrt((x + 0.3)^2 + y^2 + z^2), sqrt((x - 0.3)^2 + y^2 + z^2)) = 0.5;";
+    let cases: [(&str, &str, Distance); 2] = [
+        ("rotated cube", CUBE, cube_distance),
+        ("two balls", balls, balls_distance),
+    ];
+    println!(
+        "| surface | level | creases | triangles | crease vertices | p50 | p99 | p99.9 | max |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for (name, src, distance) in cases {
+        let s = surface(src);
+        for level in [5, 6, 7] {
+            let (_, plain) = mesh(&s, level, false);
+            for creases in [false, true] {
+                let (m, r) = mesh(&s, level, creases);
+                check_same_topology(&r, &plain);
+                let e = chord_errors(&m, distance);
+                println!(
+                    "| {name} | {level} | {} | {} | {} | {:.1e} | {:.1e} | {:.1e} | {:.1e} |",
+                    if creases { "yes" } else { "no" },
+                    r.triangles,
+                    r.crease_vertices,
+                    quantile(&e, 0.5),
+                    quantile(&e, 0.99),
+                    quantile(&e, 0.999),
+                    e[e.len() - 1]
+                );
+            }
+        }
+    }
+}
