@@ -24,10 +24,10 @@
 //!    the box when the mean's nearest crease point lies outside it;
 //! 2. moved onto `f = 0` ([`crate::roots::project`], to bisection
 //!    precision), it moves less than a tenth of the box's smallest side
-//!    and stays in the box, and it is a kink of f, not a bend: a fifth of
+//!    and stays in the box, and it is a kink of f, not a bend: a tenth of
 //!    the way from it towards the two vertices whose normals differ most,
 //!    the gradients still differ by half the gap between the normals'
-//!    clusters (on a smooth patch they differ by about a fifth of the
+//!    clusters (on a smooth patch they differ by about a tenth of the
 //!    normals' whole spread);
 //! 3. the fan — one triangle `(a, b, q)` per boundary edge `a → b` of the
 //!    patch, so it keeps the patch's orientation — has no degenerate
@@ -37,6 +37,13 @@
 //! 4. the fan is closer to the surface than the patch: the largest
 //!    first-order distance `|f|/‖∇f‖` at its triangles' centroids is below
 //!    the patch's.
+//!
+//! A cell whose normals pass the test but whose feature point falls
+//! outside its box (the crease runs just past one of its faces) is merged
+//! into the fan of the neighbouring feature point that shares exactly one
+//! boundary edge with it, the nearest such: one fan over both patches'
+//! boundaries (the shared edge gone). If the merged fan fails step 3, the
+//! neighbour keeps its own fan.
 //!
 //! Then every edge `a–b` shared by the fans of two different feature
 //! points `q₁`, `q₂` is flipped to `q₁–q₂` when that edge does not exist
@@ -58,7 +65,9 @@
 //!
 //! Cells whose patch has several components or an MC33 tunnel are left as
 //! they are, and so are creases that need more than one feature point in
-//! a cell (two creases through one cell). A fan is tested against its own
+//! a cell (two creases through one cell), and grazed cells with no
+//! neighbouring feature point to merge into (a corner whose point lies
+//! outside a small cell often is one). A fan is tested against its own
 //! cell's surface normals and bounding box, not against other cells'
 //! triangles (no stage tests for self-intersection). The normals at
 //! feature points are the gradient there (one side's, where f has a kink),
@@ -86,7 +95,7 @@ const GAP_RATIO: f64 = 3.0;
 
 /// The kink test looks at the gradient this fraction of the way from the
 /// feature point to two patch vertices.
-const NEAR: f64 = 0.2;
+const NEAR: f64 = 0.1;
 
 /// Eigenvalues of the error's matrix below this share of the largest are
 /// truncated (directions along a crease, or the free directions of a flat
@@ -108,9 +117,27 @@ pub struct Creases {
 /// cycle `a → b` in the patch's orientation), and the feature point on
 /// the surface.
 struct Candidate {
-    tris: Range<usize>,
+    /// The triangles replaced: the cell's, and those of a grazed
+    /// neighbour merged into its fan.
+    tris: Vec<Range<usize>>,
     boundary: Vec<(u32, u32)>,
     point: DVec3,
+    /// The cell's own boundary, when a grazed neighbour was merged in
+    /// (restored if the merged fan fails its checks).
+    unmerged: Option<Vec<(u32, u32)>>,
+}
+
+/// A grazed cell: its triangles and its boundary cycle.
+type Grazed = (Range<usize>, Vec<(u32, u32)>);
+
+/// What the test of one cell found.
+enum Cell {
+    /// A feature point can be placed.
+    Feature(Candidate),
+    /// A crease crosses the patch, but no feature point fits in the cell
+    /// (it runs just outside the cell's box): the cell's triangles and
+    /// boundary cycle, to be merged into a neighbour's fan.
+    Grazed(Range<usize>, Vec<(u32, u32)>),
 }
 
 /// Whether triangle `[a, b, c]` (positions `p`) is not degenerate and faces
@@ -157,28 +184,39 @@ pub fn sharpen<E: Evaluator + ?Sized>(
             start = i;
         }
     }
-    let mut candidates: Vec<Candidate> = runs
+    let cells: Vec<Cell> = runs
         .into_par_iter()
         .filter_map(|tris| {
             let cell = cell_of[tris.start];
             candidate(mesh, tris, &|| bounds(cell), f, t)
         })
         .collect();
+    let (mut candidates, grazed): (Vec<Candidate>, Vec<Grazed>) = {
+        let (mut c, mut g) = (Vec::new(), Vec::new());
+        for cell in cells {
+            match cell {
+                Cell::Feature(x) => c.push(x),
+                Cell::Grazed(r, b) => g.push((r, b)),
+            }
+        }
+        (c, g)
+    };
+    merge_grazed(mesh, &mut candidates, grazed);
     // Keep the candidates whose final triangles all face the right way,
     // dropping failures until none is left: a fan edge shared with a
     // neighbouring fan is flipped to join the two feature points when the
     // two new triangles face the right way, and is kept otherwise.
     let mut alive = vec![true; candidates.len()];
+    let pos = |v: u32| mesh.positions[v as usize];
+    let flip_ok = |a: u32, b: u32, q1: DVec3, q2: DVec3| {
+        faces(mesh, [a, a], [pos(a), q2, q1]) && faces(mesh, [b, b], [pos(b), q1, q2])
+    };
     let mut owner: HashMap<(u32, u32), usize> = HashMap::default();
     for (k, c) in candidates.iter().enumerate() {
         for &e in &c.boundary {
             owner.insert(e, k);
         }
     }
-    let pos = |v: u32| mesh.positions[v as usize];
-    let flip_ok = |a: u32, b: u32, q1: DVec3, q2: DVec3| {
-        faces(mesh, [a, a], [pos(a), q2, q1]) && faces(mesh, [b, b], [pos(b), q1, q2])
-    };
     loop {
         let failing: Vec<usize> = (0..candidates.len())
             .into_par_iter()
@@ -202,7 +240,20 @@ pub fn sharpen<E: Evaluator + ?Sized>(
             break;
         }
         for k in failing {
-            alive[k] = false;
+            // A merged fan that fails falls back to the cell's own.
+            match candidates[k].unmerged.take() {
+                Some(own) => {
+                    for e in &candidates[k].boundary {
+                        owner.remove(e);
+                    }
+                    for &e in &own {
+                        owner.insert(e, k);
+                    }
+                    candidates[k].boundary = own;
+                    candidates[k].tris.truncate(1);
+                }
+                None => alive[k] = false,
+            }
         }
     }
     let mut k = 0;
@@ -224,7 +275,7 @@ pub fn sharpen<E: Evaluator + ?Sized>(
         mesh.ambiguous.push(ambiguous);
         mesh.normals.push(DVec3::ZERO);
         out.feature.push(true);
-        for r in c.tris.clone() {
+        for r in c.tris.iter().cloned().flatten() {
             replaced[r] = true;
         }
         fans.extend(c.boundary.iter().map(|&(a, b)| [a, b, q]));
@@ -245,7 +296,7 @@ pub fn sharpen<E: Evaluator + ?Sized>(
     tris.extend(fans);
     mesh.triangles = tris;
     out.flips = join_features(mesh, first_fan);
-    out.flips += settle(mesh, &out.feature, f, t);
+    out.flips += settle(mesh, &out.feature, first_fan, f, t);
     out
 }
 
@@ -269,58 +320,71 @@ fn distances<E: Evaluator + ?Sized>(f: &E, t: f64, points: &[DVec3]) -> Vec<f64>
 /// triangles face along the normals at their non-feature corners, and the
 /// larger first-order distance to the surface at the two centroids drops.
 /// Returns the flips made.
-fn settle<E: Evaluator + ?Sized>(mesh: &mut Mesh, feature: &[bool], f: &E, t: f64) -> usize {
+fn settle<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    feature: &[bool],
+    first_fan: usize,
+    f: &E,
+    t: f64,
+) -> usize {
     let is_feature = |v: u32| feature.get(v as usize).copied().unwrap_or(false);
     let cos_split = SPLIT_DEG.to_radians().cos();
-    // The triangles around feature points, and the directed edges among
-    // their vertices (packed `a << 32 | b`, sorted, with their triangle).
-    let near: Vec<usize> = (0..mesh.triangles.len())
-        .filter(|&i| mesh.triangles[i].iter().any(|&v| is_feature(v)))
-        .collect();
-    let mut ring = vec![false; mesh.positions.len()];
-    for &i in &near {
-        for v in mesh.triangles[i] {
-            ring[v as usize] = true;
+    // The fan triangles (from `first_fan` on: every triangle holding a
+    // feature point) with a side across the crease, and the triangles on
+    // the other side of those sides, found in one pass over the mesh.
+    let key = |a: u32, b: u32| ((a as u64) << 32) | b as u64;
+    let mut wanted: Vec<(u64, usize)> = Vec::new();
+    for i in first_fan..mesh.triangles.len() {
+        let tri = mesh.triangles[i];
+        let Some(k) = (0..3).find(|&k| is_feature(tri[(k + 2) % 3])) else {
+            continue;
+        };
+        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+        if !(is_feature(a)
+            || is_feature(b)
+            || mesh.normals[a as usize].dot(mesh.normals[b as usize]) >= cos_split)
+        {
+            wanted.push((key(b, a), i));
         }
     }
-    let key = |a: u32, b: u32| ((a as u64) << 32) | b as u64;
-    let mut edges: Vec<(u64, u32)> = mesh
-        .triangles
-        .par_iter()
-        .enumerate()
-        .filter(|(_, tri)| tri.iter().filter(|&&v| ring[v as usize]).count() >= 2)
-        .flat_map_iter(|(i, tri)| (0..3).map(move |k| (key(tri[k], tri[(k + 1) % 3]), i as u32)))
-        .collect();
-    edges.par_sort_unstable();
-    let find = |a: u32, b: u32| {
-        let k = key(a, b);
-        let at = edges.partition_point(|e| e.0 < k);
-        (edges.get(at).map(|e| e.0) == Some(k)).then(|| edges[at].1 as usize)
-    };
-    let joined = |u: u32, v: u32| find(u, v).is_some() || find(v, u).is_some();
+    if wanted.is_empty() {
+        return 0;
+    }
+    wanted.sort_unstable();
+    let mut across: Vec<Option<usize>> = vec![None; wanted.len()];
+    for (j, tri) in mesh.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let e = key(tri[k], tri[(k + 1) % 3]);
+            let at = wanted.partition_point(|w| w.0 < e);
+            if wanted.get(at).is_some_and(|w| w.0 == e) {
+                across[at] = Some(j);
+            }
+        }
+    }
+    // Edges at feature points (all in fan triangles).
+    let mut at_feature: HashSet<(u32, u32)> = HashSet::default();
+    for tri in &mesh.triangles[first_fan..] {
+        for k in 0..3 {
+            let (u, v) = (tri[k], tri[(k + 1) % 3]);
+            at_feature.insert((u.min(v), u.max(v)));
+        }
+    }
     // Candidate flips: (t1, t2, [a, b, q, c]).
     let mut cands: Vec<(usize, usize, [u32; 4])> = Vec::new();
-    for &i in &near {
+    for (&(_, i), &j) in wanted.iter().zip(&across) {
+        let Some(j) = j else {
+            continue;
+        };
         let tri = mesh.triangles[i];
         let Some(k) = (0..3).find(|&k| is_feature(tri[(k + 2) % 3])) else {
             continue;
         };
         let (a, b, q) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
-        // Only sides that cross the crease (their ends on two sides of it).
-        if is_feature(a)
-            || is_feature(b)
-            || mesh.normals[a as usize].dot(mesh.normals[b as usize]) >= cos_split
-        {
-            continue;
-        }
-        let Some(j) = find(b, a) else {
-            continue;
-        };
         let other = mesh.triangles[j];
         let Some(c) = other.iter().copied().find(|&v| v != a && v != b) else {
             continue;
         };
-        if is_feature(c) || c == q || joined(q, c) {
+        if is_feature(c) || c == q || at_feature.contains(&(q.min(c), q.max(c))) {
             continue;
         }
         let pos = |v: u32| mesh.positions[v as usize];
@@ -429,7 +493,7 @@ fn candidate<E: Evaluator + ?Sized>(
     bounds: &dyn Fn() -> [DVec3; 2],
     f: &E,
     t: f64,
-) -> Option<Candidate> {
+) -> Option<Cell> {
     let patch = &mesh.triangles[tris.clone()];
     // Most cells are smooth: their normals all lie within half the split
     // angle of the first one (so within the split angle of each other).
@@ -485,6 +549,7 @@ fn candidate<E: Evaluator + ?Sized>(
     }
     // The feature point: the tangent planes' least-squares intersection.
     let [lo, hi] = bounds();
+    let grazed = || Some(Cell::Grazed(tris.clone(), cycle.clone()));
     let pos: Vec<DVec3> = verts.iter().map(|&v| mesh.positions[v as usize]).collect();
     let mean = pos.iter().copied().sum::<DVec3>() / pos.len() as f64;
     let mut a = DMat3::ZERO;
@@ -499,10 +564,13 @@ fn candidate<E: Evaluator + ?Sized>(
     // Along a crease (one free direction) the point may slide along it
     // into the box.
     if free.len() == 1 && p.is_finite() && !inside(p) {
-        p = slide_into(p, free[0], lo, hi)?;
+        match slide_into(p, free[0], lo, hi) {
+            Some(x) => p = x,
+            None => return grazed(),
+        }
     }
     if !p.is_finite() || !inside(p) {
-        return None;
+        return grazed();
     }
     let side = (hi - lo).min_element();
     let q = project(f, t, p, 0.1 * side)?;
@@ -526,11 +594,71 @@ fn candidate<E: Evaluator + ?Sized>(
     {
         return None;
     }
-    Some(Candidate {
-        tris,
+    Some(Cell::Feature(Candidate {
+        tris: vec![tris],
         boundary: cycle,
         point: q,
-    })
+        unmerged: None,
+    }))
+}
+
+/// Merges each grazed cell into the fan of a neighbouring candidate that
+/// shares exactly one boundary edge with it (the crease runs through the
+/// neighbour, just past the shared face; of several such neighbours, the
+/// one whose feature point is nearest the grazed patch): the neighbour's
+/// cycle with that edge `b → a` replaced by the grazed cell's path from
+/// `b` around to `a`. Edges the grazed cell shares with other candidates
+/// stay, and are joined like any two fans'. A candidate takes at most one
+/// grazed cell.
+fn merge_grazed(mesh: &Mesh, candidates: &mut [Candidate], grazed: Vec<Grazed>) {
+    let mut owner: HashMap<(u32, u32), usize> = HashMap::default();
+    for (k, c) in candidates.iter().enumerate() {
+        for &e in &c.boundary {
+            owner.insert(e, k);
+        }
+    }
+    let mut taken = vec![false; candidates.len()];
+    for (tris, cycle) in grazed {
+        let shared: Vec<(usize, usize)> = cycle
+            .iter()
+            .enumerate()
+            .filter_map(|(i, &(a, b))| owner.get(&(b, a)).map(|&d| (i, d)))
+            .collect();
+        let centre = cycle
+            .iter()
+            .map(|e| mesh.positions[e.0 as usize])
+            .sum::<DVec3>()
+            / cycle.len() as f64;
+        let once = |d: usize| shared.iter().filter(|s| s.1 == d).count() == 1;
+        let Some(&(i, d)) = shared
+            .iter()
+            .filter(|&&(_, d)| !taken[d] && once(d))
+            .min_by(|x, y| {
+                let dist = |k: usize| candidates[k].point.distance(centre);
+                dist(x.1).total_cmp(&dist(y.1))
+            })
+        else {
+            continue;
+        };
+        let (a, b) = cycle[i];
+        let cand = &mut candidates[d];
+        let Some(at) = cand.boundary.iter().position(|&e| e == (b, a)) else {
+            continue;
+        };
+        // The grazed cell's path b → … → a, then the rest of the cycle.
+        let path: Vec<(u32, u32)> = (1..cycle.len())
+            .map(|k| cycle[(i + k) % cycle.len()])
+            .collect();
+        // Its vertices must be new to the candidate's cycle (one disk).
+        let inner: HashSet<u32> = path.iter().map(|e| e.1).filter(|&v| v != a).collect();
+        if cand.boundary.iter().any(|e| inner.contains(&e.0)) {
+            continue;
+        }
+        cand.unmerged = Some(cand.boundary.clone());
+        cand.boundary.splice(at..=at, path);
+        cand.tris.push(tris);
+        taken[d] = true;
+    }
 }
 
 /// `x` minimising `|a x − r|` in the eigenvector basis of the symmetric

@@ -230,6 +230,13 @@ fn smooth_surfaces_are_left_as_they_are() {
         assert_eq!(plain.triangles, sharp.triangles, "{src}");
         assert_eq!(plain.positions, sharp.positions, "{src}");
     }
+    // An adaptive octree's large cells on a tightly curved smooth surface
+    // (the chair's bends at the default level 7) are no creases either.
+    let chair =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/corpus/chair_off.iso"))
+            .expect("corpus file");
+    let (_, r) = isoc::mesher::mesh(&surface(&chair), &MeshOptions::default(), &|_| {});
+    assert_eq!(r.crease_vertices, 0);
 }
 
 /// The table of `docs/creases.md`: chord errors (exact distances from the
