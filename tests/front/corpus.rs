@@ -17,20 +17,7 @@ use isoc::CompileOptions;
 use isoc::syntax::front_end;
 use std::collections::HashSet;
 
-fn corpus() -> Vec<(String, String)> {
-    let mut files: Vec<(String, String)> = std::fs::read_dir("corpus")
-        .expect("corpus/ exists")
-        .filter_map(|e| e.ok())
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|x| x == "iso"))
-        .map(|p| {
-            let src = std::fs::read_to_string(&p).unwrap();
-            (p.display().to_string(), src)
-        })
-        .collect();
-    files.sort();
-    files
-}
+use crate::support::corpus;
 
 /// The `key=value` pairs (or bare words) of the `# expect:` line.
 fn expectation(src: &str) -> Vec<(String, String)> {

@@ -9,22 +9,7 @@ use isoc::mesher::{self, MeshOptions, MeshReport};
 use isoc::octree::{OctreeOptions, TopologyTest};
 use isoc::{CompileOptions, Surface};
 
-fn corpus() -> Vec<(String, String)> {
-    let mut files: Vec<(String, String)> = std::fs::read_dir("corpus")
-        .expect("corpus/ exists")
-        .filter_map(|e| e.ok())
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|x| x == "iso"))
-        .map(|p| {
-            (
-                p.display().to_string(),
-                std::fs::read_to_string(&p).unwrap(),
-            )
-        })
-        .collect();
-    files.sort();
-    files
-}
+use crate::support::corpus;
 
 /// `(components, total genus)` from the `# expect:` line, `None` for a
 /// singular surface.

@@ -755,3 +755,19 @@ pub fn surface(src: &str) -> isoc::Surface {
     isoc::Surface::compile(src, "test.iso", &isoc::CompileOptions::default())
         .unwrap_or_else(|e| panic!("{}", e.render()))
 }
+
+/// Every `corpus/*.iso` file as (path, source), sorted by path.
+pub fn corpus() -> Vec<(String, String)> {
+    let mut files: Vec<(String, String)> = std::fs::read_dir("corpus")
+        .expect("corpus/ exists")
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "iso"))
+        .map(|p| {
+            let src = std::fs::read_to_string(&p).expect("a readable corpus file");
+            (p.display().to_string(), src)
+        })
+        .collect();
+    files.sort();
+    files
+}
