@@ -678,13 +678,13 @@ pub fn isoc_triangles(m: &isoc::mesh::Mesh) -> Vec<[usize; 3]> {
 
 /// First-order distance of mesh vertices to the surface, |f(v)| / ‖∇f(v)‖,
 /// with f and ∇f evaluated in f64 by isoc's gradient kernel on the
-/// degenerate box [v, v] (midpoints of the enclosures). Returns (mean, max)
-/// divided by the finest cell edge of the depth (largest domain edge / 2^depth).
-/// Vertices where ∇f vanishes are skipped.
-pub fn vertex_distance(case: &Case, pts: &[[f64; 3]], depth: u8) -> (f64, f64) {
+/// degenerate box [v, v] (midpoints of the enclosures). Returns (mean, 99.9th
+/// percentile, max) divided by the finest cell edge of the depth (largest
+/// domain edge / 2^depth). Vertices where ∇f vanishes are skipped.
+pub fn vertex_distance(case: &Case, pts: &[[f64; 3]], depth: u8) -> (f64, f64, f64) {
     let n = pts.len();
     if n == 0 {
-        return (f64::NAN, f64::NAN);
+        return (f64::NAN, f64::NAN, f64::NAN);
     }
     let mut input = Vec::with_capacity(8 * n);
     for p in pts {
@@ -698,18 +698,21 @@ pub fn vertex_distance(case: &Case, pts: &[[f64; 3]], depth: u8) -> (f64, f64) {
     let d = case.surface.domain;
     let edge = (0..3).map(|k| d.hi[k] - d.lo[k]).fold(0.0, f64::max);
     let h = edge / (1u64 << depth) as f64;
-    let (mut sum, mut max, mut cnt) = (0.0, 0.0f64, 0usize);
+    let mut dists = Vec::with_capacity(n);
     for i in 0..n {
         let m = |k: usize| 0.5 * (out[8 * i + 2 * k] + out[8 * i + 2 * k + 1]);
         let g = (m(1).powi(2) + m(2).powi(2) + m(3).powi(2)).sqrt();
         if g > 0.0 && g.is_finite() && m(0).is_finite() {
-            let dist = m(0).abs() / g / h;
-            sum += dist;
-            max = max.max(dist);
-            cnt += 1;
+            dists.push(m(0).abs() / g / h);
         }
     }
-    (sum / cnt.max(1) as f64, max)
+    if dists.is_empty() {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    dists.sort_by(f64::total_cmp);
+    let mean = dists.iter().sum::<f64>() / dists.len() as f64;
+    let p999 = dists[((dists.len() - 1) as f64 * 0.999) as usize];
+    (mean, p999, dists[dists.len() - 1])
 }
 
 pub fn fidget_points(m: &fidget::mesh::Mesh) -> Vec<[f64; 3]> {
