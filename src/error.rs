@@ -35,9 +35,9 @@ impl Error {
     /// diagnostics (`FILE:LINE:COL: error: …` with a caret, see
     /// [`crate::syntax::diag`]), anything else as `error: MESSAGE`.
     pub fn render(&self) -> String {
-        match self.source_error() {
-            Some(e) => e.render(),
-            None => format!("error: {self}\n"),
+        match self {
+            Error::Front(e) => e.render(),
+            _ => format!("error: {self}\n"),
         }
     }
 }

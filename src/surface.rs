@@ -31,8 +31,8 @@ impl CompileError {
     /// caret), or `error: MESSAGE` for anything else.
     pub fn render(&self) -> String {
         match self {
-            CompileError::Front(FrontError::Source(e)) => e.render(),
-            _ => format!("error: {self}\n"),
+            CompileError::Front(e) => e.render(),
+            CompileError::Jit(e) => format!("error: {e}\n"),
         }
     }
 }

@@ -189,6 +189,19 @@ fn dec(iv: (Interval, bool), ok: bool) -> DecInterval {
     DecInterval::new(iv.0, iv.1 && ok)
 }
 
+/// A total binary op's rule applied directly ([`interval::binary_with`]).
+#[inline]
+fn total(
+    a: DecInterval,
+    b: DecInterval,
+    rule: impl Fn(Interval, Interval) -> Interval,
+) -> DecInterval {
+    dec(
+        interval::binary_with(a.iv, b.iv, rule),
+        a.defined && b.defined,
+    )
+}
+
 impl Num for DecInterval {
     fn cst(c: f64) -> Self {
         DecInterval::new(Interval::point(c), true)
@@ -211,24 +224,15 @@ impl Num for DecInterval {
     }
     #[inline]
     fn add(a: Self, b: Self) -> Self {
-        dec(
-            interval::binary_with(a.iv, b.iv, interval::arith::add),
-            a.defined && b.defined,
-        )
+        total(a, b, interval::arith::add)
     }
     #[inline]
     fn sub(a: Self, b: Self) -> Self {
-        dec(
-            interval::binary_with(a.iv, b.iv, interval::arith::sub),
-            a.defined && b.defined,
-        )
+        total(a, b, interval::arith::sub)
     }
     #[inline]
     fn mul(a: Self, b: Self) -> Self {
-        dec(
-            interval::binary_with(a.iv, b.iv, interval::arith::mul),
-            a.defined && b.defined,
-        )
+        total(a, b, interval::arith::mul)
     }
     #[inline]
     fn neg(a: Self) -> Self {

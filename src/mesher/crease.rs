@@ -13,8 +13,9 @@
 //!
 //! A dual cell is sharpened when its patch is one disk whose vertices are
 //! all cell-edge vertices (no MC33 interior vertex), the surface normals at
-//! those vertices span more than [`SPLIT_DEG`] degrees (a crease between
-//! them), and
+//! those vertices fall into two or three clusters more than [`SPLIT_DEG`]
+//! degrees apart, the gap at least `GAP_RATIO` times the largest angle
+//! inside a cluster (a crease between them), and
 //!
 //! 1. the feature point — the least-squares intersection of the vertices'
 //!    tangent planes (a quadratic error function solved from the vertices'
@@ -33,10 +34,8 @@
 //!    patch, so it keeps the patch's orientation — has no degenerate
 //!    triangle and each triangle faces along the surface normals at `a`
 //!    and `b` (along their mean where `a–b` crosses the crease), after the
-//!    flips below;
-//! 4. the fan is closer to the surface than the patch: the largest
-//!    first-order distance `|f|/‖∇f‖` at its triangles' centroids is below
-//!    the patch's.
+//!    flips below; a candidate that fails is dropped and the others are
+//!    checked again without it.
 //!
 //! A cell whose normals pass the test but whose feature point falls
 //! outside its box (the crease runs just past one of its faces) is merged
@@ -109,7 +108,8 @@ pub struct Creases {
     pub feature: Vec<bool>,
     /// Cells whose patch became a fan around a feature point.
     pub cells: usize,
-    /// Edges flipped to join two feature points.
+    /// Edges flipped: to join two feature points, and to settle fans next
+    /// to cells without one.
     pub flips: usize,
 }
 
@@ -137,7 +137,7 @@ enum Cell {
     /// A crease crosses the patch, but no feature point fits in the cell
     /// (it runs just outside the cell's box): the cell's triangles and
     /// boundary cycle, to be merged into a neighbour's fan.
-    Grazed(Range<usize>, Vec<(u32, u32)>),
+    Grazed(Grazed),
 }
 
 /// Whether triangle `[a, b, c]` (positions `p`) is not degenerate and faces
@@ -196,7 +196,7 @@ pub fn sharpen<E: Evaluator + ?Sized>(
         for cell in cells {
             match cell {
                 Cell::Feature(x) => c.push(x),
-                Cell::Grazed(r, b) => g.push((r, b)),
+                Cell::Grazed(x) => g.push(x),
             }
         }
         (c, g)
@@ -333,18 +333,19 @@ fn settle<E: Evaluator + ?Sized>(
     // feature point) with a side across the crease, and the triangles on
     // the other side of those sides, found in one pass over the mesh.
     let key = |a: u32, b: u32| ((a as u64) << 32) | b as u64;
-    let mut wanted: Vec<(u64, usize)> = Vec::new();
+    // (key of `b → a`, triangle `(a, b, q)`, [a, b, q]).
+    let mut wanted: Vec<(u64, usize, [u32; 3])> = Vec::new();
     for i in first_fan..mesh.triangles.len() {
         let tri = mesh.triangles[i];
         let Some(k) = (0..3).find(|&k| is_feature(tri[(k + 2) % 3])) else {
             continue;
         };
-        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+        let (a, b, q) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
         if !(is_feature(a)
             || is_feature(b)
             || mesh.normals[a as usize].dot(mesh.normals[b as usize]) >= cos_split)
         {
-            wanted.push((key(b, a), i));
+            wanted.push((key(b, a), i, [a, b, q]));
         }
     }
     if wanted.is_empty() {
@@ -371,15 +372,10 @@ fn settle<E: Evaluator + ?Sized>(
     }
     // Candidate flips: (t1, t2, [a, b, q, c]).
     let mut cands: Vec<(usize, usize, [u32; 4])> = Vec::new();
-    for (&(_, i), &j) in wanted.iter().zip(&across) {
+    for (&(_, i, [a, b, q]), &j) in wanted.iter().zip(&across) {
         let Some(j) = j else {
             continue;
         };
-        let tri = mesh.triangles[i];
-        let Some(k) = (0..3).find(|&k| is_feature(tri[(k + 2) % 3])) else {
-            continue;
-        };
-        let (a, b, q) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
         let other = mesh.triangles[j];
         let Some(c) = other.iter().copied().find(|&v| v != a && v != b) else {
             continue;
@@ -549,7 +545,7 @@ fn candidate<E: Evaluator + ?Sized>(
     }
     // The feature point: the tangent planes' least-squares intersection.
     let [lo, hi] = bounds();
-    let grazed = || Some(Cell::Grazed(tris.clone(), cycle.clone()));
+    let grazed = || Some(Cell::Grazed((tris.clone(), cycle.clone())));
     let pos: Vec<DVec3> = verts.iter().map(|&v| mesh.positions[v as usize]).collect();
     let mean = pos.iter().copied().sum::<DVec3>() / pos.len() as f64;
     let mut a = DMat3::ZERO;
