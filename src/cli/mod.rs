@@ -545,6 +545,24 @@ fn mesh_command(
             obj.insert("tolerance_met".into(), json!(t.met));
             obj.insert("tolerance_passes".into(), json!(t.passes));
             obj.insert("kmax".into(), num(t.kmax));
+            obj.insert(
+                "adapt".into(),
+                json!({
+                    "splits": t.adapted.splits,
+                    "refused": t.adapted.refused,
+                    "collapses": t.adapted.collapses,
+                    "flips": t.adapted.flips,
+                    "rounds": t.adapted.rounds,
+                    "ms": {
+                        "size": num(t.adapted.ms[0]),
+                        "repair": num(t.adapted.ms[1]),
+                        "relax": num(t.adapted.ms[2]),
+                    },
+                }),
+            );
+            if let Some(ms) = j["timings_ms"].as_object_mut() {
+                ms.insert("adapt".into(), num(r.timings.adapt));
+            }
         }
         write(out, &(j.to_string() + "\n"))?;
     }

@@ -11,6 +11,7 @@
 //! right-hand normal points along `+∇f` (outward = increasing f).
 
 pub mod deviation;
+pub(crate) mod dynmesh;
 pub mod quality;
 pub mod topology;
 

@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
+pub mod adapt;
 pub mod crease;
 pub mod flip;
 pub mod smooth;
@@ -94,6 +95,9 @@ pub struct Timings {
     pub polygonize: f64,
     /// Milliseconds in smoothing.
     pub smooth: f64,
+    /// Milliseconds adapting the mesh to a tolerance ([`adapt`]; the last
+    /// pass of [`mesh_to_tolerance`], 0 otherwise).
+    pub adapt: f64,
     /// Milliseconds for the whole run.
     pub total: f64,
 }
@@ -171,19 +175,20 @@ pub fn mesh_with<E: Evaluator + ?Sized>(
     opts: &MeshOptions,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> (Mesh, MeshReport) {
-    let (mesh, report, _) = mesh_refining(f, domain, opts, &Refine::default(), progress);
+    let (mesh, report, _, _) = mesh_refining(f, domain, opts, &Refine::default(), progress);
     (mesh, report)
 }
 
 /// [`mesh_with`] on an octree that also subdivides the cells of `refine`
-/// ([`Octree::build_refining`]); returns the octree too.
+/// ([`Octree::build_refining`]); returns the octree and the crease
+/// vertices' flags too.
 fn mesh_refining<E: Evaluator + ?Sized>(
     f: &E,
     domain: Bounds,
     opts: &MeshOptions,
     refine: &Refine,
     progress: &(dyn Fn(Stage) + Sync),
-) -> (Mesh, MeshReport, Octree) {
+) -> (Mesh, MeshReport, Octree, Vec<bool>) {
     let start = Instant::now();
     let domain = opts.domain.unwrap_or(domain);
     let t = opts.octree.t;
@@ -235,10 +240,11 @@ fn mesh_refining<E: Evaluator + ?Sized>(
             dual: dual_ms,
             polygonize: polygonize_ms,
             smooth: smooth_ms,
+            adapt: 0.0,
             total: ms(start),
         },
     };
-    (mesh, report, tree)
+    (mesh, report, tree, creases.feature)
 }
 
 /// What [`mesh_to_tolerance`] achieved.
@@ -254,8 +260,11 @@ pub struct ToleranceReport {
     pub met: bool,
     /// The geometry criterion `k_max` of the returned mesh.
     pub kmax: f64,
-    /// Meshes built.
+    /// Meshes built (octree passes).
     pub passes: usize,
+    /// What the adaptation on the surface did, over all passes
+    /// ([`adapt`]).
+    pub adapted: adapt::Adapted,
     /// Wall time of all passes, deviation measurements included (ms).
     pub total_ms: f64,
 }
@@ -263,36 +272,43 @@ pub struct ToleranceReport {
 /// Most meshes [`mesh_to_tolerance`] builds.
 const MAX_PASSES: usize = 12;
 
-/// Meshes like [`mesh_with`], then measures every triangle's deviation
-/// from the surface and, while some exceed `tolerance`, meshes again on an
-/// octree that also subdivides the leaves holding those triangles' corners,
-/// centroids and quarter points of their edges ([`Octree::build_refining`];
-/// the set only grows, so a refined region stays refined), up to
-/// `opts.octree.max_level`.
+/// Meshes `f = 0` so that every triangle lies within `tolerance` of the
+/// surface, as measured at its centroid and edge midpoints
+/// ([`crate::mesh::deviation`]), with `opts.octree.max_level` as the cap.
 ///
-/// Refinement is per cell: only where a measured triangle is too far from
-/// the surface do cells get smaller, so flat regions keep the large
-/// triangles the geometry criterion `k_max` allows and curved ones get
-/// the small triangles their chord error needs. When no offending leaf
-/// can be split any more, or two passes did not lower the deviation by
-/// 5 % (all such leaves at the maximal level, or a deviation the leaves do
-/// not explain, as near a singular point), the geometry criterion `k_max`
-/// is lowered everywhere instead (by `√(tolerance / deviation)`, clamped
-/// to `[0.1, 0.7]`, down to 10⁻³), at most twice. It stops when the
-/// tolerance is met, after 12 passes, or when it stalls with no lowering
-/// left (the cap is too coarse, or the surface too singular for the
-/// measurement: `met` is then false). The octree's criteria and guarantees
-/// are those of [`mesh_with`]: a forced subdivision never discards a cell
-/// that may hold surface.
+/// 1. **The octree decides the topology.** The first mesh is
+///    [`mesh_with`]'s at the default level 7 (or the cap, if lower),
+///    without smoothing; its octree's criteria and guarantees are
+///    [`mesh_with`]'s.
+/// 2. **The surface decides the size** ([`adapt`]): the mesh is remeshed on
+///    the surface — edge lengths sized from the measured deviations,
+///    splits, collapses, flips and relaxation, every vertex projected onto
+///    `f = 0`, topology and orientation kept — and the triangles still
+///    outside the tolerance are repaired by measured flips and splits.
+///    Flat regions get large triangles, curved ones small ones.
+/// 3. **The mesh is measured again**, on its own, and is returned if every
+///    triangle is within the tolerance.
+/// 4. **Otherwise** (where ∇f vanishes on the surface, at a cusp or a
+///    pinch, some splits find no surface point), it falls back to refining
+///    the octree: a mesh at the cap (with `opts.smooth` passes), then
+///    meshes on octrees that also subdivide the leaves under the offending
+///    triangles' corners, centroids and edge quarter points
+///    ([`Octree::build_refining`]; the set only grows). When no offending
+///    leaf can be split, or two passes did not lower the deviation by a
+///    quarter, the geometry criterion `k_max` is lowered everywhere (by
+///    `√(tolerance / deviation)`, clamped to `[0.1, 0.7]`, down to 10⁻³), at
+///    most twice. It stops when the tolerance is met, after 12 meshes, or
+///    when it stalls with no lowering left (`met` is then false).
+///
+/// The returned report's `max_deviation` is measured on the returned mesh;
+/// `met` is true only when no measured point is farther than `tolerance`.
 ///
 /// # Limits
 ///
-/// Each pass rebuilds the mesh from the root (the octree of the last pass
-/// is not reused), so the time is the sum of the passes'. The deviation
-/// is measured at centroids and edge midpoints only (see
-/// [`crate::mesh::deviation`]); an offending triangle refines the leaves under
-/// thirteen of its points, not every corner of its dual cell, so a few
-/// passes may be needed where large leaves meet.
+/// The deviation is measured at four points per triangle only. The
+/// adaptation does not test triangles against distant parts of the mesh
+/// (two sheets closer than an edge). The fallback rebuilds each octree from
+/// the root, so its time is the sum of its passes'.
 pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
     f: &E,
     domain: Bounds,
@@ -304,18 +320,59 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
     let t = opts.octree.t;
     let mut refine = Refine::default();
     let mut o = *opts;
+    let cap = opts.octree.max_level;
+    // The first octree is `mesh`'s at its default level (or the cap, if
+    // lower): the adaptation on the surface, not the octree, meets the
+    // tolerance. Later passes may refine the octree up to the cap.
+    o.octree.max_level = cap.min(OctreeOptions::default().max_level);
+    // The adaptation relaxes the mesh itself, with its tolerance checked;
+    // smoothing the extracted mesh first would be undone.
+    o.smooth = 0;
     let mut passes = 0;
     let (mut best, mut stuck, mut lowerings) = (f64::INFINITY, 0, 0);
+    let mut adapted = adapt::Adapted::default();
     loop {
         passes += 1;
-        let (mesh, report, tree) = mesh_refining(f, domain, &o, &refine, progress);
+        let (mut mesh, mut report, tree, feature) = mesh_refining(f, domain, &o, &refine, progress);
+        if passes == 1 {
+            // Adapt the first mesh on the surface. Should that fail to
+            // meet the tolerance (where ∇f vanishes, as at a cusp, some
+            // splits find no surface point), the passes after it refine
+            // the octree where the adapted triangles are too far, up to
+            // the cap, with the mesher's own smoothing instead.
+            let t0 = Instant::now();
+            // No edge is split below a quarter of the tolerance (a
+            // triangle no larger than the tolerance is within it, its
+            // corners being on the surface) nor below an eighth of the
+            // cap's cells (the finest detail `--level` allows).
+            let bounds = o.domain.unwrap_or(domain);
+            let cell = (0..3)
+                .map(|k| (bounds.hi[k] - bounds.lo[k]) / f64::from(1u32 << cap.min(30)))
+                .fold(f64::INFINITY, f64::min);
+            let min_edge = (MIN_EDGE * tolerance).max(cell / 8.0);
+            let (_, a) = adapt::adapt(&mut mesh, &feature, f, t, tolerance, min_edge);
+            adapted = a;
+            report.triangles = mesh.triangles.len();
+            report.vertices = mesh.positions.len();
+            report.aspect_good = quality::aspect_good(&mesh);
+            report.topology = topology::analyze(&mesh);
+            report.timings.adapt = ms(t0);
+            o.smooth = opts.smooth;
+        }
         // A triangle's corners lie on the surface, so the surface is within
         // one edge length of every sample; the projection may search twice
         // that.
         let reach = 2.0 * longest_edge(&mesh) + f64::MIN_POSITIVE;
-        let devs = crate::mesh::deviation::triangle_deviations(&mesh, f, t, reach);
+        let devs = crate::mesh::deviation::triangle_deviations(&mesh, f, t, reach, true);
         let dev = devs.iter().copied().fold(0.0, f64::max);
         let met = dev <= tolerance;
+        if !met && passes == 1 && passes < MAX_PASSES {
+            // The adapted mesh missed the tolerance: mesh again as `mesh`
+            // does at the cap, then refine that octree where its triangles
+            // are too far (the loop below).
+            o.octree.max_level = cap;
+            continue;
+        }
         // The leaves under the offending triangles, where they can still
         // be split.
         let before = refine.len();
@@ -338,7 +395,7 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
                 for p in points {
                     if let Some(leaf) = tree.leaf_containing(p) {
                         let n = &tree.nodes[leaf];
-                        if n.level < o.octree.max_level {
+                        if n.level < cap {
                             refine.insert((n.level, n.ijk));
                         }
                     }
@@ -350,7 +407,7 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
         // cap, or a measurement the leaves do not explain, e.g. near a
         // singular point): tighten the geometry criterion everywhere
         // instead, at most `MAX_LOWERINGS` times.
-        if dev < 0.95 * best {
+        if dev < 0.75 * best {
             best = dev;
             stuck = 0;
         } else {
@@ -365,8 +422,10 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
                 met,
                 kmax: o.octree.kmax,
                 passes,
+                adapted,
                 total_ms: ms(start),
             };
+            report.timings.total = ms(start);
             return (mesh, report, r);
         }
         if stalled {
@@ -379,8 +438,12 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
             lowerings += 1;
             stuck = 0;
         }
+        o.octree.max_level = cap;
     }
 }
+
+/// No edge shorter than this share of the tolerance is split.
+const MIN_EDGE: f64 = 0.25;
 
 /// Most times [`mesh_to_tolerance`] lowers `k_max`.
 const MAX_LOWERINGS: usize = 2;

@@ -85,59 +85,68 @@ const SETTLED: f64 = 0.85;
 /// Where relaxation would take vertex `v` (before projection), and the
 /// largest distance from `v` to its star's corners (`None`: the vertex
 /// stays, its star being empty or already [`SETTLED`] by the triangles'
-/// aspect ratios `aspects`): the better, by the
-/// star's worst aspect ratio, of the tangential components of the moves
-/// towards the neighbours' average (uniform Laplacian) and towards the
-/// area-weighted average of the star's triangle centroids.
+/// aspect ratios `aspects`): [`relaxation_target`] of its star.
 fn target(mesh: &Mesh, star: &Star, aspects: &[f64], v: usize) -> Option<(DVec3, f64)> {
     let tris = star.of(v);
     if tris.is_empty() || tris.iter().all(|&ti| aspects[ti as usize] >= SETTLED) {
         return None;
     }
-    let p = mesh.positions[v];
-    // The edge opposite `v` in triangle `ti` of the star.
-    let opposite = |ti: u32| {
-        let tri = mesh.triangles[ti as usize];
-        let s = tri.iter().position(|&w| w as usize == v)?;
-        Some((
-            mesh.positions[tri[(s + 1) % 3] as usize],
-            mesh.positions[tri[(s + 2) % 3] as usize],
-        ))
-    };
-    // The star's least aspect ratio with `v` at `q` (`None`: `v` is not a
-    // corner of one of its triangles, a broken star).
-    let worst = |q: DVec3| {
-        tris.iter().try_fold(f64::INFINITY, |w, &ti| {
-            let (b, c) = opposite(ti)?;
-            Some(w.min(aspect(q, b, c)))
+    // The edge opposite `v` in each triangle of the star (`None`: `v` is
+    // not a corner of one of its triangles, a broken star).
+    let opposite: Option<Vec<(DVec3, DVec3)>> = tris
+        .iter()
+        .map(|&ti| {
+            let tri = mesh.triangles[ti as usize];
+            let s = tri.iter().position(|&w| w as usize == v)?;
+            Some((
+                mesh.positions[tri[(s + 1) % 3] as usize],
+                mesh.positions[tri[(s + 2) % 3] as usize],
+            ))
         })
+        .collect();
+    Some(relaxation_target(
+        mesh.positions[v],
+        mesh.normals[v],
+        &opposite?,
+    ))
+}
+
+/// Where relaxation takes a vertex at `p` with unit normal `n` whose star's
+/// triangles are `(p, b, c)` for the edges `(b, c)` of `opposite`, and the
+/// largest distance from `p` to their corners: the better, by the star's
+/// worst aspect ratio, of the tangential components of the moves towards
+/// the neighbours' average (uniform Laplacian) and towards the
+/// area-weighted average of the star's triangle centroids.
+pub(crate) fn relaxation_target(p: DVec3, n: DVec3, opposite: &[(DVec3, DVec3)]) -> (DVec3, f64) {
+    let worst = |q: DVec3| {
+        opposite
+            .iter()
+            .fold(f64::INFINITY, |w, &(b, c)| w.min(aspect(q, b, c)))
     };
     let (mut bary, mut cent, mut weight, mut reach) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0f64);
-    for &ti in tris {
-        let (b, c) = opposite(ti)?;
+    for &(b, c) in opposite {
         bary += b + c;
         reach = reach.max((b - p).length()).max((c - p).length());
         let area = 0.5 * (b - p).cross(c - p).length();
         cent += (p + b + c) / 3.0 * area;
         weight += area;
     }
-    let n = mesh.normals[v];
     let tangent = |q: DVec3| {
         let d = q - p;
         p + d - n * d.dot(n)
     };
-    let bary = tangent(bary / (2 * tris.len()) as f64);
+    let bary = tangent(bary / (2 * opposite.len().max(1)) as f64);
     let cent = if weight > 0.0 {
         tangent(cent / weight)
     } else {
         bary
     };
-    let q = if worst(bary)? >= worst(cent)? {
+    let q = if worst(bary) >= worst(cent) {
         bary
     } else {
         cent
     };
-    Some((q, reach))
+    (q, reach)
 }
 
 /// A greedy colouring of the vertices (no two joined by an edge share a

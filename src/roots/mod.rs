@@ -29,6 +29,8 @@
 //!   refined by [`bisect`]), refusing to move farther than a given distance, so that a
 //!   point never jumps to another sheet of the surface. Each evaluation
 //!   depends on the last, so it evaluates one point at a time.
+//! - [`line_zero`]: a zero along a given line (the mesher's splits, where
+//!   the gradient line would fold a triangle over).
 //! - [`walk::newton`]: a Newton walk with bounded steps (the twinned
 //!   meshes' projection), ending in [`bisect`] once a step crosses the
 //!   surface.
@@ -352,6 +354,49 @@ pub fn bisect_batch<E: Evaluator + ?Sized>(f: &E, t: f64, segments: &[Segment]) 
         });
     }
     out
+}
+
+/// A zero of `f(·, t)` on the line through `p` along `dir`, within `reach`
+/// of `p`: the line is stepped outward on both sides in eighths of
+/// `reach` until the sign changes, nearest first, and the bracket is
+/// refined by [`bisect`]. `None` when `dir` is zero, `f(p)` is not finite
+/// or no sign change lies within `reach` (a zero the steps straddle twice
+/// is missed).
+pub fn line_zero<E: Evaluator + ?Sized>(
+    f: &E,
+    t: f64,
+    p: DVec3,
+    dir: DVec3,
+    reach: f64,
+) -> Option<DVec3> {
+    let dir = dir.normalize_or_zero();
+    let fp = f.point(at(p, t));
+    if dir == DVec3::ZERO || !fp.is_finite() {
+        return None;
+    }
+    if fp == 0.0 {
+        return Some(p);
+    }
+    let mut last = [(p, fp); 2];
+    let mut s = reach / 8.0;
+    while s <= reach * (1.0 + 1e-12) {
+        for (k, side) in [1.0, -1.0].into_iter().enumerate() {
+            let q = p + dir * (side * s);
+            let fq = f.point(at(q, t));
+            if fq == 0.0 {
+                return Some(q);
+            }
+            if fq.is_finite() && (fq < 0.0) != (fp < 0.0) {
+                let (a, fa) = last[k];
+                return Some(bisect(f, t, a, q, fa, fq));
+            }
+            if fq.is_finite() {
+                last[k] = (q, fq);
+            }
+        }
+        s += reach / 8.0;
+    }
+    None
 }
 
 /// `p` moved onto `f(·, t) = 0` along its gradient line, or `None` when no

@@ -36,7 +36,7 @@
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
-use super::dynmesh::DynMesh;
+use crate::mesh::dynmesh::DynMesh;
 
 /// The shared element: rest shape and stiffness. See the module doc.
 #[derive(Clone, Debug)]

@@ -29,10 +29,10 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::dynmesh::{EdgeKey, key};
 use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::mesh::Mesh;
+use crate::mesh::dynmesh::{EdgeKey, key};
 use crate::roots::walk::newton;
 
 /// What [`refine`] did.

@@ -53,7 +53,6 @@
 //! Newton walks ([`crate::roots::walk`]), one per vertex, run in parallel; remeshing
 //! evaluates one point at a time (see [`remesh`]).
 
-pub(crate) mod dynmesh;
 pub mod error;
 pub(crate) mod fem;
 pub mod geometric;
@@ -70,11 +69,11 @@ use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::geometry::Bounds;
 use crate::interval::Interval;
+use crate::mesh::dynmesh::{DynMesh, EdgeKey, key};
 use crate::mesh::{Mesh, quality, topology};
 use crate::mesher::{self, MeshOptions};
 use crate::octree::OctreeOptions;
 use crate::surface::Surface;
-use dynmesh::{DynMesh, EdgeKey, key};
 pub use error::TrackError;
 use fem::{Frames, Stiffness};
 

@@ -41,8 +41,8 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
 use glam::DVec3;
 
-use super::dynmesh::{DynMesh, EdgeKey, key};
 use crate::eval::Evaluator;
+use crate::mesh::dynmesh::{DynMesh, EdgeKey, key};
 use crate::roots::walk::newton;
 
 /// Thresholds of [`remesh`].

@@ -8,6 +8,7 @@
 #[path = "../support/mod.rs"]
 mod support;
 
+mod adapt;
 mod corpus_mesh;
 mod crease;
 mod dual;

@@ -11,7 +11,7 @@ use std::sync::Mutex;
 use glam::DVec3;
 use isoc::eval::{Evaluator, GradEval, Reference};
 use isoc::interval::{DecInterval, Interval};
-use isoc::roots::{Segment, bisect, bisect_batch, project, project_along};
+use isoc::roots::{Segment, bisect, bisect_batch, line_zero, project, project_along};
 use isoc::{CompileOptions, Surface};
 
 const FUNCTIONS: [&str; 4] = [
@@ -267,4 +267,40 @@ fn projection_lands_on_the_gradient_line_within_reach() {
             assert_eq!(project(&s, 0.0, p, 0.1), None, "{p}");
         }
     }
+}
+
+/// `line_zero` finds the zero nearest to the start along a line (either
+/// direction), on the surface to bisection precision, and nothing when no
+/// sign change lies within reach or the direction is zero.
+#[test]
+fn line_zero_finds_the_nearest_zero_along_a_line() {
+    let s = Surface::compile(
+        "domain [-2, 2]^3; surface x^2 + y^2 + z^2 - 1;",
+        "t.iso",
+        &CompileOptions::default(),
+    )
+    .unwrap();
+    // From inside, along +x and -x: the nearer crossing is at x = +1
+    // (start at x = 0.3); the sphere is 0.7 away that way and 1.3 the other.
+    let p = DVec3::new(0.3, 0.0, 0.0);
+    for dir in [DVec3::X, DVec3::NEG_X] {
+        let q = line_zero(&s, 0.0, p, dir, 1.0).expect("a zero within reach");
+        assert!(
+            (q.x - 1.0).abs() < 1e-12 && q.y == 0.0 && q.z == 0.0,
+            "{q:?}"
+        );
+    }
+    // Tangent line at distance 0.5 from the sphere: no crossing.
+    let p = DVec3::new(0.0, 1.5, 0.0);
+    assert!(line_zero(&s, 0.0, p, DVec3::X, 1.0).is_none());
+    // Too short a reach, and a zero direction.
+    assert!(line_zero(&s, 0.0, DVec3::ZERO, DVec3::X, 0.5).is_none());
+    assert!(line_zero(&s, 0.0, DVec3::new(0.9, 0.0, 0.0), DVec3::ZERO, 1.0).is_none());
+    // An oblique line from outside: the point found is on the sphere and on
+    // the line.
+    let (p, d) = (DVec3::new(1.2, 0.3, -0.1), DVec3::new(-1.0, 0.2, 0.1));
+    let q = line_zero(&s, 0.0, p, d, 1.0).expect("a crossing");
+    assert!((q.length() - 1.0).abs() < 1e-12, "{q:?}");
+    let off = (q - p).cross(d.normalize()).length();
+    assert!(off < 1e-12, "{q:?} is {off:e} off the line");
 }

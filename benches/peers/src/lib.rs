@@ -645,6 +645,70 @@ pub fn isoc_mesh(
     isoc::mesher::mesh(&case.surface, &opts, &|_| {})
 }
 
+/// The high-genus surfaces of the tolerance table (issue 11's targets):
+/// corpus formulas and a shared model.
+pub const TOLERANCE_SET: [&str; 10] = [
+    "tanglecube.vm",
+    "decocube",
+    "chebyshev",
+    "bretzel2",
+    "bretzel5",
+    "genus2",
+    "twotorus",
+    "nested",
+    "blobs_merge",
+    "torus",
+];
+
+/// isoc's mesher to a tolerance `tol` (`isoc mesh --tolerance`: the
+/// defaults otherwise, level cap 10) on the surface's own domain.
+pub fn isoc_mesh_tolerance(
+    case: &Case,
+    tol: f64,
+) -> (
+    isoc::mesh::Mesh,
+    isoc::mesher::MeshReport,
+    isoc::mesher::ToleranceReport,
+) {
+    let mut opts = isoc::mesher::MeshOptions::default();
+    opts.octree.max_level = 10;
+    isoc::mesher::mesh_to_tolerance(&case.surface, case.surface.domain, &opts, tol, &|_| {})
+}
+
+/// The length of the domain's diagonal.
+pub fn diagonal(case: &Case) -> f64 {
+    let d = case.surface.domain;
+    (0..3)
+        .map(|k| (d.hi[k] - d.lo[k]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// The share of triangles whose aspect ratio `4√3·area / Σ edge²` exceeds
+/// 0.8 (SPEC's `aspect_good`), computed here for both meshers alike.
+pub fn aspect_share(pts: &[[f64; 3]], tris: &[[usize; 3]]) -> f64 {
+    if tris.is_empty() {
+        return 0.0;
+    }
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let good = tris
+        .iter()
+        .filter(|t| {
+            let [a, b, c] = t.map(|i| pts[i]);
+            let (u, v, w) = (sub(b, a), sub(c, a), sub(c, b));
+            let n = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
+            let s = dot(u, u) + dot(v, v) + dot(w, w);
+            s > 0.0 && 2.0 * 3f64.sqrt() * dot(n, n).sqrt() / s > 0.8
+        })
+        .count();
+    good as f64 / tris.len() as f64
+}
+
 /// Fidget's Manifold Dual Contouring at `depth` on the same box: its octree
 /// lives on [-1, 1]³ and `world_to_model` maps that cube onto the domain
 /// (per-axis scale + translation, so non-cubic domains match exactly).
@@ -682,6 +746,13 @@ pub fn isoc_triangles(m: &isoc::mesh::Mesh) -> Vec<[usize; 3]> {
 /// percentile, max) divided by the finest cell edge of the depth (largest
 /// domain edge / 2^depth). Vertices where ∇f vanishes are skipped.
 pub fn vertex_distance(case: &Case, pts: &[[f64; 3]], depth: u8) -> (f64, f64, f64) {
+    let d = case.surface.domain;
+    let edge = (0..3).map(|k| d.hi[k] - d.lo[k]).fold(0.0, f64::max);
+    distance_in(case, pts, edge / (1u64 << depth) as f64)
+}
+
+/// [`vertex_distance`] in units of `unit`.
+pub fn distance_in(case: &Case, pts: &[[f64; 3]], unit: f64) -> (f64, f64, f64) {
     let n = pts.len();
     if n == 0 {
         return (f64::NAN, f64::NAN, f64::NAN);
@@ -695,9 +766,7 @@ pub fn vertex_distance(case: &Case, pts: &[[f64; 3]], depth: u8) -> (f64, f64, f
     case.kernels
         .grad_batch(&input, &mut out, &mut defined)
         .unwrap();
-    let d = case.surface.domain;
-    let edge = (0..3).map(|k| d.hi[k] - d.lo[k]).fold(0.0, f64::max);
-    let h = edge / (1u64 << depth) as f64;
+    let h = unit;
     let mut dists = Vec::with_capacity(n);
     for i in 0..n {
         let m = |k: usize| 0.5 * (out[8 * i + 2 * k] + out[8 * i + 2 * k + 1]);

@@ -40,6 +40,8 @@ struct Args {
     levels: Vec<u8>,
     /// isoc's smoothing passes (0: none, as Fidget; 3: isoc's default).
     smooth: usize,
+    /// Only the tolerance table (isoc `--tolerance` against Fidget depth 8).
+    tolerance: bool,
     only: Vec<String>,
 }
 
@@ -49,6 +51,7 @@ fn args() -> Args {
         mesh: true,
         levels: vec![6, 7],
         smooth: 0,
+        tolerance: false,
         only: vec![],
     };
     let mut it = std::env::args().skip(1);
@@ -56,6 +59,7 @@ fn args() -> Args {
         match s.as_str() {
             "--quick" => a.quick = true,
             "--no-mesh" => a.mesh = false,
+            "--tolerance" => a.tolerance = true,
             "--levels" => {
                 a.levels = it
                     .next()
@@ -67,7 +71,7 @@ fn args() -> Args {
             "--smooth" => a.smooth = it.next().and_then(|n| n.parse().ok()).expect("--smooth 3"),
             "-h" | "--help" => {
                 println!(
-                    "usage: isoc-peers [--quick] [--no-mesh] [--levels 6,7] [--smooth N] [formula…]"
+                    "usage: isoc-peers [--quick] [--no-mesh] [--levels 6,7] [--smooth N] [--tolerance] [formula…]"
                 );
                 std::process::exit(0);
             }
@@ -106,6 +110,10 @@ fn topo_cell(
 
 fn main() {
     let a = args();
+    if a.tolerance {
+        tolerance_table(&a);
+        return;
+    }
     let names: Vec<&str> = CORPUS
         .iter()
         .chain(&MODELS)
@@ -271,6 +279,84 @@ fn main() {
         }
     }
     eprintln!("total {:.1} s", started.elapsed().as_secs_f64());
+}
+
+/// isoc `--tolerance D` (D = 10⁻⁴ of the domain's diagonal) against Fidget
+/// at depth 8 (issue 11's targets), on [`TOLERANCE_SET`] or the named
+/// surfaces.
+fn tolerance_table(a: &Args) {
+    let names: Vec<&str> = if a.only.is_empty() {
+        TOLERANCE_SET.to_vec()
+    } else {
+        a.only.iter().map(String::as_str).collect()
+    };
+    let reps = if a.quick { 1 } else { 3 };
+    println!(
+        "## Meshing to a tolerance (wall time, median of {reps} runs, {} rayon threads; ratio = isoc / Fidget)\n",
+        rayon_threads()
+    );
+    println!(
+        "isoc: `mesh --tolerance D` with D = 10⁻⁴ of the domain's diagonal (level cap 10, all defaults). \
+         Fidget: Manifold Dual Contouring at depth 8. Chord error: |f| / ‖∇f‖ at every triangle centroid, \
+         in units of D (target: 99.9th percentile ≤ 1, max ≤ 3). Aspect: share of triangles with \
+         aspect ratio > 0.8. Topology from each mesh's triangles.\n"
+    );
+    println!(
+        "| surface | D | isoc tris | Fidget tris | **tris ratio** | isoc ms | Fidget ms | **time ratio** \
+         | isoc chord p99.9 / max | Fidget chord p99.9 / max | isoc aspect | Fidget aspect \
+         | isoc topology | Fidget topology | isoc met |"
+    );
+    println!("|{}", "---|".repeat(15));
+    for name in names {
+        let c = Case::load(name).unwrap_or_else(|e| panic!("{e}"));
+        let d = 1e-4 * diagonal(&c);
+        let mut iso = None;
+        let ti = median(
+            || {
+                let r = isoc_mesh_tolerance(&c, d);
+                let n = r.0.triangles.len() as f64;
+                iso = Some(r);
+                n
+            },
+            reps,
+            0.0,
+        );
+        let mut fid = None;
+        let tf = median(
+            || {
+                let m = fidget_mesh(&c, 8);
+                let n = m.triangles.len() as f64;
+                fid = Some(m);
+                n
+            },
+            reps,
+            0.0,
+        );
+        let (im, rep, tol) = iso.unwrap();
+        let fm = fid.unwrap();
+        let (ip, fp) = (isoc_points(&im), fidget_points(&fm));
+        let (it, ft) = (isoc_triangles(&im), fidget_triangles(&fm));
+        let (_, icp, icx) = distance_in(&c, &centroids(&ip, &it), d);
+        let (_, fcp, fcx) = distance_in(&c, &centroids(&fp, &ft), d);
+        let (itop, ftop) = (topology(&it), topology(&ft));
+        let tr = &rep.topology;
+        let igenus: Option<i64> = tr.genus.iter().copied().sum();
+        let _ = itop;
+        println!(
+            "| {name} | {d:.2e} | {} | {} | **{:.2}** | {:.1} | {:.1} | **{:.2}** | {icp:.2} / {icx:.2} | {fcp:.2} / {fcx:.2} | {:.3} | {:.3} | {} | {} | {} |",
+            it.len(),
+            ft.len(),
+            it.len() as f64 / ft.len().max(1) as f64,
+            ti * 1e3,
+            tf * 1e3,
+            ti / tf,
+            aspect_share(&ip, &it),
+            aspect_share(&fp, &ft),
+            topo_cell(tr.components, igenus, tr.watertight, c.expect),
+            topo_cell(ftop.components, ftop.genus, ftop.watertight, c.expect),
+            if tol.met { "yes" } else { "no" },
+        );
+    }
 }
 
 /// The size of rayon's global pool (which both meshers use): the

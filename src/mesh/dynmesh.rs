@@ -1,6 +1,7 @@
-//! The mechanical mesh's mutable triangle mesh: indexed triangles whose
-//! connectivity changes every frame (Bouthors & Nesme §2.5: edge split,
-//! edge collapse; plus edge flips).
+//! A mutable triangle mesh: indexed triangles whose connectivity changes
+//! by local operations — edge split, edge collapse (Bouthors & Nesme §2.5)
+//! and edge flip. The twinned tracker's mechanical mesh changes by them
+//! every frame; the mesher adapts a mesh to a tolerance with them.
 //!
 //! # Layout
 //!
@@ -16,7 +17,7 @@
 
 use glam::DVec3;
 
-use crate::mesh::Mesh;
+use super::Mesh;
 
 /// An undirected edge, smaller index first.
 pub(crate) type EdgeKey = (u32, u32);
@@ -140,6 +141,48 @@ impl DynMesh {
             .collect()
     }
 
+    /// The two live triangles of an interior edge `a–b` (as
+    /// [`DynMesh::edge_tris`] rotates them), or `None` when the edge has
+    /// another number of triangles. No allocation.
+    pub fn edge_pair(&self, a: u32, b: u32) -> Option<[(u32, [u32; 3]); 2]> {
+        let mut out = [(u32::MAX, [0; 3]); 2];
+        let mut n = 0;
+        for &i in &self.star[a as usize] {
+            let t = self.tris[i as usize];
+            if t.contains(&b) {
+                if n == 2 {
+                    return None;
+                }
+                out[n] = (i, rotate_to_edge(t, a, b));
+                n += 1;
+            }
+        }
+        (n == 2).then_some(out)
+    }
+
+    /// Every live edge once, in no particular order, without sorting: an
+    /// interior edge from the triangle that reads it from its smaller end,
+    /// a boundary edge from its one triangle.
+    pub fn edges_unordered(&self) -> Vec<EdgeKey> {
+        let mut out = Vec::with_capacity(self.tris.len() * 3 / 2 + 16);
+        for (_, t) in self.live_tris() {
+            for k in 0..3 {
+                let (u, v) = (t[k], t[(k + 1) % 3]);
+                // The twin `v → u` read by another triangle, if any.
+                let twin = || {
+                    self.star[v as usize].iter().any(|&i| {
+                        let s = self.tris[i as usize];
+                        (0..3).any(|j| s[j] == v && s[(j + 1) % 3] == u)
+                    })
+                };
+                if u < v || !twin() {
+                    out.push(key(u, v));
+                }
+            }
+        }
+        out
+    }
+
     /// The vertices adjacent to `v`.
     pub fn neighbours(&self, v: u32) -> Vec<u32> {
         let mut out: Vec<u32> = self.star[v as usize]
@@ -185,6 +228,17 @@ impl DynMesh {
         m
     }
 
+    /// Splits triangle `i = [a, b, c]` at a new vertex `(p, g)` into
+    /// `[a, b, m]`, `[b, c, m]`, `[c, a, m]`. Returns the new vertex.
+    pub fn split_triangle(&mut self, i: u32, p: DVec3, g: DVec3) -> u32 {
+        let [a, b, c] = self.tris[i as usize];
+        let m = self.add_vertex(p, g);
+        self.set_tri(i, [a, b, m]);
+        self.add_tri([b, c, m]);
+        self.add_tri([c, a, m]);
+        m
+    }
+
     /// Collapses edge `a–b` into `a`, moved to `(p, g)`: the triangles of
     /// the edge die, `b`'s other triangles take `a` instead. The caller
     /// has checked [`DynMesh::can_collapse_topologically`].
@@ -207,10 +261,9 @@ impl DynMesh {
     /// exactly the two vertices opposite the edge, and neither of those
     /// drops below valence 3.
     pub fn can_collapse_topologically(&self, a: u32, b: u32) -> bool {
-        let tris = self.edge_tris(a, b);
-        if tris.len() != 2 {
+        let Some(tris) = self.edge_pair(a, b) else {
             return false;
-        }
+        };
         let opp = [tris[0].1[2], tris[1].1[2]];
         if opp[0] == opp[1] {
             return false;
@@ -240,11 +293,7 @@ impl DynMesh {
     /// The quad of a flippable edge: `(c, d, t1, t2)` with
     /// `t1 = [a, b, c]`, `t2 = [b, a, d]`.
     pub fn flip_quad(&self, a: u32, b: u32) -> Option<(u32, u32, u32, u32)> {
-        let tris = self.edge_tris(a, b);
-        if tris.len() != 2 {
-            return None;
-        }
-        let (mut t1, mut t2) = (tris[0], tris[1]);
+        let [mut t1, mut t2] = self.edge_pair(a, b)?;
         if t1.1[0] != a {
             std::mem::swap(&mut t1, &mut t2);
         }
@@ -401,6 +450,40 @@ mod tests {
         check_topology(&m, 8);
         m.compact();
         check_topology(&m, 8);
+    }
+
+    /// `edge_pair` finds the two triangles of every interior edge, rotated
+    /// to start with it; `edges_unordered` lists the same edges as the
+    /// sorted `edges`, each once, closed or with a boundary; a triangle
+    /// split keeps the octahedron closed and outward.
+    #[test]
+    fn edge_queries_and_triangle_splits() {
+        let mut m = octahedron();
+        for (a, b) in m.edges() {
+            let [(i, s), (j, t)] = m.edge_pair(a, b).expect("interior edge");
+            assert_ne!(i, j);
+            for u in [s, t] {
+                assert!((u[0] == a && u[1] == b) || (u[0] == b && u[1] == a));
+            }
+        }
+        let mut e = m.edges_unordered();
+        e.sort_unstable();
+        assert_eq!(e, m.edges());
+        let c = (DVec3::X + DVec3::Y + DVec3::Z).normalize();
+        let v = m.split_triangle(0, c, c);
+        check_closed(&m, 10);
+        assert_eq!(m.neighbours(v).len(), 3);
+        // With a boundary: drop one triangle; its three edges become
+        // boundary edges and are still listed once.
+        m.kill_tri(1);
+        let mut e = m.edges_unordered();
+        e.sort_unstable();
+        assert_eq!(e, m.edges());
+        let boundary = e
+            .iter()
+            .filter(|&&(a, b)| m.edge_pair(a, b).is_none())
+            .count();
+        assert_eq!(boundary, 3);
     }
 
     #[test]
