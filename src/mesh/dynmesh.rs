@@ -164,6 +164,17 @@ impl DynMesh {
     /// interior edge from the triangle that reads it from its smaller end,
     /// a boundary edge from its one triangle.
     pub fn edges_unordered(&self) -> Vec<EdgeKey> {
+        self.edges_from(false)
+    }
+
+    /// [`DynMesh::edges_unordered`] for a mesh the caller knows to be
+    /// closed (every edge in two triangles, read both ways): no boundary
+    /// search.
+    pub fn closed_edges(&self) -> Vec<EdgeKey> {
+        self.edges_from(true)
+    }
+
+    fn edges_from(&self, closed: bool) -> Vec<EdgeKey> {
         let mut out = Vec::with_capacity(self.tris.len() * 3 / 2 + 16);
         for (_, t) in self.live_tris() {
             for k in 0..3 {
@@ -175,7 +186,7 @@ impl DynMesh {
                         (0..3).any(|j| s[j] == v && s[(j + 1) % 3] == u)
                     })
                 };
-                if u < v || !twin() {
+                if u < v || (!closed && !twin()) {
                     out.push(key(u, v));
                 }
             }
@@ -467,6 +478,9 @@ mod tests {
             }
         }
         let mut e = m.edges_unordered();
+        e.sort_unstable();
+        assert_eq!(e, m.edges());
+        let mut e = m.closed_edges();
         e.sort_unstable();
         assert_eq!(e, m.edges());
         let c = (DVec3::X + DVec3::Y + DVec3::Z).normalize();

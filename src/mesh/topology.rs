@@ -14,7 +14,7 @@ use std::collections::HashMap;
 use super::{Mesh, Star};
 
 /// What [`analyze`] finds.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Topology {
     /// Vertices used by at least one triangle (`V`).
     pub vertices: usize,

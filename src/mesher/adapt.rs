@@ -216,6 +216,9 @@ struct Adapter<'a, E: Evaluator + ?Sized> {
     checked: bool,
     /// No edge shorter than this is split.
     min_edge: f64,
+    /// Whether the mesh has no boundary (no operation here makes or removes
+    /// one).
+    closed: bool,
     /// No split round starts once the mesh has this many triangles (dead
     /// ones included): `BUDGET` times the input's, at least a million.
     budget: usize,
@@ -263,10 +266,12 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
         // Vertices on the boundary (an open surface cut by the domain) or
         // on a non-manifold edge stay where they are: moving or removing
         // one would move the cut.
+        let mut closed = true;
         for (u, v) in m.edges_unordered() {
             if m.edge_pair(u, v).is_none() {
                 kept[u as usize] = true;
                 kept[v as usize] = true;
+                closed = false;
             }
         }
         let dev = vec![UNKNOWN; m.tris.len()];
@@ -281,8 +286,18 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
             tol,
             checked: true,
             min_edge: 0.0,
+            closed,
             budget: (BUDGET * mesh.triangles.len()).max(1 << 20),
             counts: Adapted::default(),
+        }
+    }
+
+    /// Every live edge once, in no particular order.
+    fn edges(&self) -> Vec<EdgeKey> {
+        if self.closed {
+            self.m.closed_edges()
+        } else {
+            self.m.edges_unordered()
         }
     }
 
@@ -865,7 +880,7 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
                 f64::INFINITY
             };
         }
-        let edges = self.m.edges_unordered();
+        let edges = self.edges();
         // One smoothing pass of the size field (log scale, the vertex and
         // its neighbours' mean weighted alike): sizes that vary from vertex
         // to vertex make irregular triangles.
@@ -903,8 +918,7 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
     /// Returns the sizes with the new vertices'.
     fn split_long(&mut self, mut size: Vec<f64>) -> Vec<f64> {
         let mut long: Vec<(f64, EdgeKey)> = self
-            .m
-            .edges_unordered()
+            .edges()
             .into_iter()
             .filter(|&(a, b)| !(self.keep[a as usize] && self.keep[b as usize]))
             .map(|e| {
@@ -930,8 +944,7 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
     fn collapse_short(&mut self, mut size: Vec<f64>) {
         size.resize(self.m.pos.len(), f64::INFINITY);
         let mut short: Vec<(f64, EdgeKey)> = self
-            .m
-            .edges_unordered()
+            .edges()
             .into_iter()
             .map(|e| {
                 let s = size[e.0 as usize].min(size[e.1 as usize]);

@@ -175,18 +175,20 @@ pub fn mesh_with<E: Evaluator + ?Sized>(
     opts: &MeshOptions,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> (Mesh, MeshReport) {
-    let (mesh, report, _, _) = mesh_refining(f, domain, opts, &Refine::default(), progress);
+    let (mesh, report, _, _) = mesh_refining(f, domain, opts, &Refine::default(), true, progress);
     (mesh, report)
 }
 
 /// [`mesh_with`] on an octree that also subdivides the cells of `refine`
 /// ([`Octree::build_refining`]); returns the octree and the crease
-/// vertices' flags too.
+/// vertices' flags too. Without `analyze` the report's topology and
+/// `aspect_good` are left at their defaults (for a mesh changed next).
 fn mesh_refining<E: Evaluator + ?Sized>(
     f: &E,
     domain: Bounds,
     opts: &MeshOptions,
     refine: &Refine,
+    analyze: bool,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> (Mesh, MeshReport, Octree, Vec<bool>) {
     let start = Instant::now();
@@ -222,11 +224,15 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     let moves = smooth::smooth_keeping(&mut mesh, &field, t, opts.smooth, &creases.feature);
     let smooth_ms = ms(t0);
 
-    let topo = topology::analyze(&mesh);
+    let (topo, aspect_good) = if analyze {
+        (topology::analyze(&mesh), quality::aspect_good(&mesh))
+    } else {
+        (topology::Topology::default(), 0.0)
+    };
     let report = MeshReport {
         triangles: mesh.triangles.len(),
         vertices: mesh.positions.len(),
-        aspect_good: quality::aspect_good(&mesh),
+        aspect_good,
         topology: topo,
         ambiguous_cells: tree.stats.ambiguous_leaves,
         guaranteed: tree.stats.ambiguous_leaves == 0,
@@ -333,7 +339,9 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
     let mut adapted = adapt::Adapted::default();
     loop {
         passes += 1;
-        let (mut mesh, mut report, tree, feature) = mesh_refining(f, domain, &o, &refine, progress);
+        // The first mesh is adapted and analysed after that.
+        let (mut mesh, mut report, tree, feature) =
+            mesh_refining(f, domain, &o, &refine, passes > 1, progress);
         if passes == 1 {
             // Adapt the first mesh on the surface. Should that fail to
             // meet the tolerance (where ∇f vanishes, as at a cusp, some

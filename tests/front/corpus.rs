@@ -60,6 +60,8 @@ fn corpus_is_complete() {
         "bretzel5",
         "bretzel2",
         "lemniscate",
+        "tanglecube",
+        "orthocircle",
     ] {
         assert!(
             names.iter().any(|n| n.ends_with(&format!("/{want}.iso"))),
@@ -214,7 +216,7 @@ fn corpus_values_match_hand_written_formulas() {
         (x * x + y * y + z * z - a * k * k).powi(2)
             - b * ((z - k).powi(2) - 2.0 * x * x) * ((z + k).powi(2) - 2.0 * y * y)
     }
-    let cases: [(&str, F); 27] = [
+    let cases: [(&str, F); 29] = [
         ("torus_fig1", |x, y, z, _| {
             (1.5 - (x * x + y * y).sqrt()).powi(2) + z * z - 1.35f64.powi(2)
         }),
@@ -309,6 +311,15 @@ fn corpus_values_match_hand_written_formulas() {
         }),
         ("lemniscate", |x, y, z, _| {
             (x * x + y * y).powi(2) - (x * x - y * y) + z * z - 0.01
+        }),
+        ("tanglecube", |x, y, z, _| {
+            let q = |u: f64| u.powi(4) - 5.0 * u * u;
+            q(x) + q(y) + q(z) + 11.8
+        }),
+        ("orthocircle", |x, y, z, _| {
+            let ring = |u: f64, v: f64, w: f64| (u * u + v * v - 1.0).powi(2) + w * w;
+            ring(x, y, z) * ring(y, z, x) * ring(z, x, y)
+                - 0.075f64.powi(2) * (1.0 + 3.0 * (x * x + y * y + z * z))
         }),
     ];
     let files = corpus();
