@@ -148,8 +148,7 @@ pub struct Adapted {
 
 /// Adapts `mesh` to the tolerance `tol` on `f(·, t) = 0` (see the module
 /// doc), splitting no edge shorter than `min_edge`; `keep[v]` pins vertex
-/// `v` (a shorter `keep` pins nothing past its end). Returns the adapted
-/// mesh's pinned flags with the counts.
+/// `v` (a shorter `keep` pins nothing past its end). Returns what it did.
 pub fn adapt<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     keep: &[bool],
@@ -157,7 +156,7 @@ pub fn adapt<E: Evaluator + ?Sized>(
     t: f64,
     tol: f64,
     min_edge: f64,
-) -> (Vec<bool>, Adapted) {
+) -> Adapted {
     let mut a = Adapter::new(mesh, keep, f, t, tol);
     a.min_edge = min_edge;
     let clock = Instant::now();
@@ -185,8 +184,8 @@ pub fn adapt<E: Evaluator + ?Sized>(
         }
     }
     let relaxed = clock.elapsed();
-    // A relaxed vertex keeps its star within the tolerance; this finds
-    // nothing unless a projection moved a sample's surface point.
+    // Relaxation keeps every star within the tolerance; this retries what
+    // the first repairs refused, in neighbourhoods the relaxation changed.
     a.refine();
     let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
     a.counts.ms = [
@@ -1085,15 +1084,12 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
         moves
     }
 
-    fn finish(mut self, mesh: &mut Mesh) -> (Vec<bool>, Adapted) {
+    fn finish(mut self, mesh: &mut Mesh) -> Adapted {
         let remap = self.m.compact();
-        let n = self.m.pos.len();
-        let mut ambiguous = vec![false; n];
-        let mut keep = vec![false; n];
+        let mut ambiguous = vec![false; self.m.pos.len()];
         for (old, &new) in remap.iter().enumerate() {
             if new != u32::MAX {
                 ambiguous[new as usize] = self.ambiguous[old];
-                keep[new as usize] = self.keep[old];
             }
         }
         *mesh = Mesh {
@@ -1102,7 +1098,7 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
             positions: std::mem::take(&mut self.m.pos),
             triangles: std::mem::take(&mut self.m.tris),
         };
-        (keep, self.counts)
+        self.counts
     }
 }
 
