@@ -75,6 +75,9 @@ pub mod surface;
 pub mod syntax;
 pub mod twin;
 
+#[cfg(test)]
+mod testing;
+
 pub use error::Error;
 pub use geometry::Bounds;
 pub use interval::{DecInterval, Interval};

@@ -36,9 +36,10 @@ use crate::eval::Evaluator;
 use crate::roots::{at, project};
 
 /// The largest distance from the samples of `mesh` (centroids and edge
-/// midpoints) to the surface `f(·, t) = 0`, each found by projection no
-/// farther than `reach`; `+∞` if some sample cannot be projected. 0 for a
-/// mesh without triangles.
+/// midpoints) to the surface `f(·, t) = 0`, each bounded as the module doc
+/// says (Newton's bracket or projection), searched no farther than
+/// `reach`; `+∞` if some sample cannot be projected. 0 for a mesh without
+/// triangles.
 pub fn max_deviation<E: Evaluator + ?Sized>(mesh: &Mesh, f: &E, t: f64, reach: f64) -> f64 {
     triangle_deviations(mesh, f, t, reach, false)
         .into_iter()
@@ -82,9 +83,8 @@ pub(crate) fn triangle_bounds<E: Evaluator + ?Sized>(
     let pts: Vec<DVec3> = tris.iter().flat_map(|&q| samples(q)).collect();
     let b = sample_bounds(f, t, &pts, reach);
     tris.iter()
-        .zip(b.chunks(4))
-        .map(|(&q, c)| {
-            let s = samples(q);
+        .zip(b.chunks(4).zip(pts.chunks(4)))
+        .map(|(&q, (c, s))| {
             [0, 1, 2, 3].map(|k| {
                 if on_surface {
                     c[k].min(corner_bound(q, s[k]))
@@ -213,13 +213,8 @@ mod tests {
     use crate::{CompileOptions, Surface};
 
     fn points(n: usize) -> Vec<DVec3> {
-        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
-        let mut unit = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::testing::Rng::new(0x9E37_79B9_7F4A_7C15);
+        let mut unit = || rng.unit();
         (0..n)
             .map(|_| {
                 let d = DVec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5).normalize();

@@ -239,17 +239,6 @@ impl DynMesh {
         m
     }
 
-    /// Splits triangle `i = [a, b, c]` at a new vertex `(p, g)` into
-    /// `[a, b, m]`, `[b, c, m]`, `[c, a, m]`. Returns the new vertex.
-    pub fn split_triangle(&mut self, i: u32, p: DVec3, g: DVec3) -> u32 {
-        let [a, b, c] = self.tris[i as usize];
-        let m = self.add_vertex(p, g);
-        self.set_tri(i, [a, b, m]);
-        self.add_tri([b, c, m]);
-        self.add_tri([c, a, m]);
-        m
-    }
-
     /// Collapses edge `a–b` into `a`, moved to `(p, g)`: the triangles of
     /// the edge die, `b`'s other triangles take `a` instead. The caller
     /// has checked [`DynMesh::can_collapse_topologically`].
@@ -464,11 +453,11 @@ mod tests {
     }
 
     /// `edge_pair` finds the two triangles of every interior edge, rotated
-    /// to start with it; `edges_unordered` lists the same edges as the
-    /// sorted `edges`, each once, closed or with a boundary; a triangle
-    /// split keeps the octahedron closed and outward.
+    /// to start with it; `edges_unordered` (and `closed_edges` on a closed
+    /// mesh) lists the same edges as the sorted `edges`, each once, closed
+    /// or with a boundary.
     #[test]
-    fn edge_queries_and_triangle_splits() {
+    fn edge_queries() {
         let mut m = octahedron();
         for (a, b) in m.edges() {
             let [(i, s), (j, t)] = m.edge_pair(a, b).expect("interior edge");
@@ -483,10 +472,6 @@ mod tests {
         let mut e = m.closed_edges();
         e.sort_unstable();
         assert_eq!(e, m.edges());
-        let c = (DVec3::X + DVec3::Y + DVec3::Z).normalize();
-        let v = m.split_triangle(0, c, c);
-        check_closed(&m, 10);
-        assert_eq!(m.neighbours(v).len(), 3);
         // With a boundary: drop one triangle; its three edges become
         // boundary edges and are still listed once.
         m.kill_tri(1);

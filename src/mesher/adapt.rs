@@ -41,14 +41,15 @@
 //!    flipped with a neighbour if both new triangles are within `D` (and
 //!    keep 80 % of the worse aspect ratio), else split — each edge whose
 //!    midpoint is too far, or the longest edge (preferring one shared with
-//!    another offending triangle), or, when every side was refused, the
-//!    centre. A split's vertex is the midpoint projected along the
-//!    gradient line (no farther than half the edge) or, where that folds a
-//!    new triangle over, along the line of the edge's triangles' normals
-//!    ([`crate::roots::line_zero`]), which keeps every new triangle on its
-//!    old one's side. Refused when a new triangle would face against ∇f,
-//!    when no surface point is found, below a minimal edge length, or
-//!    once the mesh has `BUDGET` times the input's triangles.
+//!    another offending triangle). A split's vertex is the midpoint
+//!    projected along the gradient line (no farther than half the edge)
+//!    or, where that folds a new triangle over, along the line of the
+//!    edge's triangles' normals ([`crate::roots::line_zero`]), which keeps
+//!    every new triangle on its old one's side. Refused when a new
+//!    triangle would face against ∇f, when no surface point is found,
+//!    below a minimal edge length, or once the mesh has `BUDGET` times the
+//!    input's triangles; a refused split is tried again next round, after
+//!    its neighbourhood changed.
 //! 3. **Relaxation** of the vertices around the repairs, each move kept
 //!    only if its star's worst aspect ratio improves and every triangle
 //!    of the star stays within `D`; then repairs again where needed.
@@ -68,7 +69,6 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use rustc_hash::FxHashSet as HashSet;
 use smallvec::SmallVec;
 
 use crate::eval::Evaluator;
@@ -205,7 +205,6 @@ struct Adapter<'a, E: Evaluator + ?Sized> {
     ambiguous: Vec<bool>,
     keep: Vec<bool>,
     dev: Vec<Bounds4>,
-    refused: HashSet<EdgeKey>,
     f: &'a E,
     t: f64,
     tol: f64,
@@ -249,6 +248,8 @@ fn worst(b: &Bounds4) -> f64 {
 
 impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
     fn new(mesh: &Mesh, keep: &[bool], f: &'a E, t: f64, tol: f64) -> Self {
+        // Vertex for vertex (not `DynMesh::from_mesh`, which renumbers):
+        // `keep` and the ambiguity flags are indexed like `mesh`.
         let mut m = DynMesh::default();
         for (i, &p) in mesh.positions.iter().enumerate() {
             let g = mesh.normals.get(i).copied().unwrap_or(DVec3::ZERO);
@@ -279,7 +280,6 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
             ambiguous,
             keep: kept,
             dev,
-            refused: HashSet::default(),
             f,
             t,
             tol,
@@ -313,22 +313,29 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
         triangle_bounds(self.f, self.t, tris, reach(tris), true)
     }
 
+    /// The bound of sample `s` of triangle `tri`: its distance to the
+    /// nearest corner when that is already within the tolerance (no
+    /// evaluation), else the least of that and [`sample_bound`].
+    fn bound(&self, tri: [DVec3; 3], s: DVec3, reach: f64) -> f64 {
+        let d = corner_bound(tri, s);
+        if d <= self.tol {
+            d
+        } else {
+            sample_bound(self.f, self.t, s, reach).min(d)
+        }
+    }
+
     /// The deviation bounds of `tris` if every one is within the tolerance,
     /// else `None`, one sample at a time: the centroids first (where an
     /// enlarged triangle usually fails), stopping at the first sample
     /// outside.
     fn within(&self, tris: &[[DVec3; 3]]) -> Option<Vec<Bounds4>> {
         let reach = reach(tris);
+        let points: Small<[DVec3; 4]> = tris.iter().map(|&q| samples(q)).collect();
         let mut out = vec![UNKNOWN; tris.len()];
         for k in 0..4 {
-            for (q, b) in tris.iter().zip(&mut out) {
-                let s = samples(*q)[k];
-                let d = corner_bound(*q, s);
-                let d = if d <= self.tol {
-                    d
-                } else {
-                    sample_bound(self.f, self.t, s, reach).min(d)
-                };
+            for ((q, s), b) in tris.iter().zip(&points).zip(&mut out) {
+                let d = self.bound(*q, s[k], reach);
                 if !at_most(d, self.tol) {
                     return None;
                 }
@@ -357,14 +364,7 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
             .map(|&(b, c, _)| [q, self.pos(b), self.pos(c)])
             .collect();
         let reach = reach(&tris);
-        let bound = |tri: [DVec3; 3], s: DVec3| {
-            let d = corner_bound(tri, s);
-            if d <= self.tol {
-                d
-            } else {
-                sample_bound(self.f, self.t, s, reach).min(d)
-            }
-        };
+        let bound = |tri: [DVec3; 3], s: DVec3| self.bound(tri, s, reach);
         let mut out = vec![UNKNOWN; tris.len()];
         for (tri, b) in tris.iter().zip(&mut out) {
             b[0] = bound(*tri, samples(*tri)[0]);
@@ -441,12 +441,8 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
             if self.m.tris.len() > self.budget {
                 return made;
             }
-            // Refusals are retried once the neighbourhood changed: each
-            // round starts afresh.
-            self.refused.clear();
             self.measure_unknown();
             let mut edges: Vec<(f64, EdgeKey)> = Vec::new();
-            let mut centres: Vec<(u32, [u32; 3])> = Vec::new();
             for i in 0..self.m.tris.len() as u32 {
                 if !self.m.tri_alive[i as usize] || !self.outside(i) {
                     continue;
@@ -459,10 +455,9 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
                 let tri = self.m.tris[i as usize];
                 let d = self.dev[i as usize];
                 let sides = [(tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])];
-                let open = |&(u, v): &(u32, u32)| !self.refused.contains(&key(u, v));
                 let mut any = false;
                 for (k, &(u, v)) in sides.iter().enumerate() {
-                    if !at_most(d[k + 1], self.tol) && open(&(u, v)) {
+                    if !at_most(d[k + 1], self.tol) {
                         edges.push((self.pos(u).distance(self.pos(v)), key(u, v)));
                         any = true;
                     }
@@ -470,8 +465,7 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
                 if !any {
                     // The longest side, preferring one whose other
                     // triangle is outside the tolerance too (one split
-                    // then serves both); the centre when every side was
-                    // refused.
+                    // then serves both).
                     let score = |&(u, v): &(u32, u32)| {
                         let shared = self
                             .m
@@ -479,19 +473,19 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
                             .is_some_and(|p| p.iter().all(|&(j, _)| j == i || self.outside(j)));
                         (shared, self.pos(u).distance_squared(self.pos(v)))
                     };
-                    let best = sides.into_iter().filter(open).max_by(|x, y| {
-                        let (sx, sy) = (score(x), score(y));
-                        sx.0.cmp(&sy.0).then(sx.1.total_cmp(&sy.1))
-                    });
-                    match best {
-                        Some((u, v)) => edges.push((self.pos(u).distance(self.pos(v)), key(u, v))),
-                        None => centres.push((i, tri)),
-                    }
+                    let (u, v) = sides
+                        .into_iter()
+                        .max_by(|x, y| {
+                            let (sx, sy) = (score(x), score(y));
+                            sx.0.cmp(&sy.0).then(sx.1.total_cmp(&sy.1))
+                        })
+                        .expect("three sides");
+                    edges.push((self.pos(u).distance(self.pos(v)), key(u, v)));
                 }
             }
             edges.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
             edges.dedup_by_key(|e| e.1);
-            if edges.is_empty() && centres.is_empty() {
+            if edges.is_empty() {
                 return made;
             }
             self.counts.rounds += 1;
@@ -500,11 +494,6 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
             for (_, (u, v)) in edges {
                 if let Some(m) = self.split(u, v) {
                     touched.push(m);
-                }
-            }
-            for (i, tri) in centres {
-                if self.m.tri_alive[i as usize] && self.m.tris[i as usize] == tri {
-                    touched.extend(self.split_centre(i));
                 }
             }
             if self.counts.splits == before {
@@ -524,7 +513,6 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
         let len = pu.distance(pv);
         let mid = (pu + pv) * 0.5;
         let refuse = |s: &mut Self| {
-            s.refused.insert(key(u, v));
             s.counts.refused += 1;
             None
         };
@@ -621,49 +609,6 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
             }
         }
         Some((q, g))
-    }
-
-    /// Splits triangle `i` at its centroid projected onto the surface (when
-    /// every side's split was refused), with the checks of a split; returns
-    /// the new vertex. A triangle refused here is not tried again.
-    fn split_centre(&mut self, i: u32) -> Option<u32> {
-        let tri = self.m.tris[i as usize];
-        let q = self.corners(i);
-        let c = (q[0] + q[1] + q[2]) / 3.0;
-        let g0 = tri.iter().map(|&v| self.unit_grad(v)).sum::<DVec3>();
-        let old = self.m.normal(i);
-        let small = !at_most(self.min_edge, longest(q));
-        let placed = project_along(self.f, self.t, c, 0.5 * longest(q)).and_then(|(p, _)| {
-            let (_, g) = self.f.point_grad(at(p, self.t));
-            let g = DVec3::from_array(g);
-            let gu = g.normalize_or_zero();
-            let fine = g.is_finite() && gu.dot(g0) > 0.0 && {
-                (0..3).all(|k| {
-                    let (a, b) = (q[k], q[(k + 1) % 3]);
-                    let n = (b - a).cross(p - a);
-                    let gs = self.unit_grad(tri[k]) + self.unit_grad(tri[(k + 1) % 3]) + gu;
-                    n.dot(gs) > 0.0 && n.dot(old) > 0.0
-                })
-            };
-            (fine && !small).then_some((p, g))
-        });
-        let Some((p, g)) = placed else {
-            // Every side and the centre refused: the triangle stays as it
-            // is (its sides stay in `refused`).
-            self.counts.refused += 1;
-            self.dev[i as usize] = [f64::INFINITY; 4];
-            return None;
-        };
-        let m = self.m.split_triangle(i, p, g);
-        self.ambiguous
-            .push(tri.iter().any(|&v| self.ambiguous[v as usize]));
-        self.keep.push(false);
-        self.dev.resize(self.m.tris.len(), UNKNOWN);
-        for &j in &self.m.star[m as usize] {
-            self.dev[j as usize] = UNKNOWN;
-        }
-        self.counts.splits += 1;
-        Some(m)
     }
 
     /// Flips that improve shape among the edges of the triangles around
@@ -766,7 +711,8 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
         true
     }
 
-    /// Removes `r` into `k` if every condition of the module doc holds.
+    /// Removes `r` into `k`, unmeasured (the size-driven iterations), if
+    /// every condition of the module doc holds.
     fn try_collapse(&mut self, r: u32, k: u32) -> bool {
         if self.keep[r as usize] || !self.m.adjacent(r, k) {
             return false;
@@ -799,7 +745,7 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
             if aspect(nq[0], nq[1], nq[2]) < floor {
                 return false;
             }
-            if !self.checked && !self.aligned(n, tri.map(|v| if v == r { k } else { v })) {
+            if !self.aligned(n, tri.map(|v| if v == r { k } else { v })) {
                 return false;
             }
         }
@@ -812,19 +758,10 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
         if !at_most(near, self.tol) || !self.m.can_collapse_topologically(k, r) {
             return false;
         }
-        let b4 = if self.checked {
-            let tris: Vec<[DVec3; 3]> = moved.iter().map(|m| m.1).collect();
-            let Some(b4) = self.within(&tris) else {
-                return false;
-            };
-            b4
-        } else {
-            vec![UNKNOWN; moved.len()]
-        };
         self.m.collapse(k, r, pk, self.m.grad[k as usize]);
         self.ambiguous[k as usize] |= self.ambiguous[r as usize];
-        for ((i, _), b) in moved.iter().zip(b4) {
-            self.dev[*i as usize] = b;
+        for (i, _) in &moved {
+            self.dev[*i as usize] = UNKNOWN;
         }
         self.counts.collapses += 1;
         true
@@ -1179,13 +1116,8 @@ mod tests {
             DVec3::new(1.0, 0.2, 0.0),
             DVec3::new(0.3, 0.9, 0.4),
         ];
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 3.0 - 1.0
-        };
+        let mut rng = crate::testing::Rng::new(12345);
+        let mut rnd = || rng.unit() * 3.0 - 1.0;
         for _ in 0..200 {
             let p = DVec3::new(rnd(), rnd(), rnd());
             let d = point_triangle_distance(p, tri);

@@ -783,13 +783,8 @@ mod tests {
 
     #[test]
     fn eigen_decomposition_reconstructs_symmetric_matrices() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rng = crate::testing::Rng::new(0x9e37_79b9_7f4a_7c15);
+        let mut next = || rng.unit() * 2.0 - 1.0;
         for _ in 0..200 {
             let (a, b, c, d, e, f) = (next(), next(), next(), next(), next(), next());
             let m = DMat3::from_cols(

@@ -358,14 +358,15 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
                 .map(|k| (bounds.hi[k] - bounds.lo[k]) / f64::from(1u32 << cap.min(30)))
                 .fold(f64::INFINITY, f64::min);
             let min_edge = (MIN_EDGE * tolerance).max(cell / 8.0);
-            let a = adapt::adapt(&mut mesh, &feature, f, t, tolerance, min_edge);
-            adapted = a;
+            adapted = adapt::adapt(&mut mesh, &feature, f, t, tolerance, min_edge);
             report.triangles = mesh.triangles.len();
             report.vertices = mesh.positions.len();
             report.aspect_good = quality::aspect_good(&mesh);
             report.topology = topology::analyze(&mesh);
             report.timings.adapt = ms(t0);
+            // Any later mesh is the fallback's: at the cap, smoothed.
             o.smooth = opts.smooth;
+            o.octree.max_level = cap;
         }
         // A triangle's corners lie on the surface, so the surface is within
         // one edge length of every sample; the projection may search twice
@@ -374,11 +375,10 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
         let devs = crate::mesh::deviation::triangle_deviations(&mesh, f, t, reach, true);
         let dev = devs.iter().copied().fold(0.0, f64::max);
         let met = dev <= tolerance;
-        if !met && passes == 1 && passes < MAX_PASSES {
+        if !met && passes == 1 {
             // The adapted mesh missed the tolerance: mesh again as `mesh`
             // does at the cap, then refine that octree where its triangles
             // are too far (the loop below).
-            o.octree.max_level = cap;
             continue;
         }
         // The leaves under the offending triangles, where they can still
@@ -411,11 +411,11 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
             }
         }
         // Nothing left to split where the triangles are bad, or two passes
-        // without lowering the deviation by 5 % (every such leaf at the
-        // cap, or a measurement the leaves do not explain, e.g. near a
-        // singular point): tighten the geometry criterion everywhere
+        // each without lowering the deviation by a quarter (every such leaf
+        // at the cap, or a measurement the leaves do not explain, e.g. near
+        // a singular point): tighten the geometry criterion everywhere
         // instead, at most `MAX_LOWERINGS` times.
-        if dev < 0.75 * best {
+        if dev < GAIN * best {
             best = dev;
             stuck = 0;
         } else {
@@ -446,12 +446,15 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
             lowerings += 1;
             stuck = 0;
         }
-        o.octree.max_level = cap;
     }
 }
 
 /// No edge shorter than this share of the tolerance is split.
 const MIN_EDGE: f64 = 0.25;
+
+/// A fallback pass gains when its deviation is below this share of the
+/// best so far.
+const GAIN: f64 = 0.75;
 
 /// Most times [`mesh_to_tolerance`] lowers `k_max`.
 const MAX_LOWERINGS: usize = 2;

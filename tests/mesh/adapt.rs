@@ -39,6 +39,19 @@ fn samples(mesh: &isoc::Mesh) -> impl Iterator<Item = DVec3> + '_ {
     })
 }
 
+/// The exact distance from `p` to the torus of radii `big` (around the
+/// z axis) and `tube`.
+fn torus_distance(p: DVec3, big: f64, tube: f64) -> f64 {
+    ((p.x.hypot(p.y) - big).hypot(p.z) - tube).abs()
+}
+
+/// The outward direction of that torus's ∇f at `p` (away from the core
+/// circle of radius `big`).
+fn torus_outward(p: DVec3, big: f64) -> DVec3 {
+    let r = p.x.hypot(p.y);
+    DVec3::new(p.x * (r - big) / r, p.y * (r - big) / r, p.z)
+}
+
 /// Surfaces of known genus and an exact distance function: the adapted
 /// mesh is closed, has the surface's components and genera, keeps every
 /// vertex on the surface, faces along ∇f everywhere (the exact gradient at
@@ -58,11 +71,8 @@ fn adapted_meshes_keep_topology_orientation_and_the_tolerance() {
              surface (sqrt(x^2 + y^2) - 1)^2 + z^2 - 0.0625;",
             4e-4,
             vec![Some(1)],
-            |p| ((((p.x * p.x + p.y * p.y).sqrt() - 1.0).hypot(p.z)) - 0.25).abs(),
-            |p| {
-                let r = (p.x * p.x + p.y * p.y).sqrt();
-                DVec3::new(p.x * (r - 1.0) / r, p.y * (r - 1.0) / r, p.z)
-            },
+            |p| torus_distance(p, 1.0, 0.25),
+            |p| torus_outward(p, 1.0),
             0.7,
         ),
         (
@@ -92,11 +102,8 @@ fn adapted_meshes_keep_topology_orientation_and_the_tolerance() {
              surface (sqrt(x^2 + y^2) - 0.7)^2 + z^2 - 0.0064;",
             2e-4,
             vec![Some(1)],
-            |p| ((((p.x * p.x + p.y * p.y).sqrt() - 0.7).hypot(p.z)) - 0.08).abs(),
-            |p| {
-                let r = (p.x * p.x + p.y * p.y).sqrt();
-                DVec3::new(p.x * (r - 0.7) / r, p.y * (r - 0.7) / r, p.z)
-            },
+            |p| torus_distance(p, 0.7, 0.08),
+            |p| torus_outward(p, 0.7),
             // The equators of a thin tube keep stretched triangles.
             0.55,
         ),

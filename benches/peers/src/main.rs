@@ -341,7 +341,12 @@ fn tolerance_table(a: &Args) {
         let (itop, ftop) = (topology(&it), topology(&ft));
         let tr = &rep.topology;
         let igenus: Option<i64> = tr.genus.iter().copied().sum();
-        let _ = itop;
+        if itop.components != tr.components || itop.watertight != tr.watertight {
+            eprintln!(
+                "note: {name}: isoc's report (C={} watertight={}) differs from this benchmark's count (C={} watertight={})",
+                tr.components, tr.watertight, itop.components, itop.watertight
+            );
+        }
         println!(
             "| {name} | {d:.2e} | {} | {} | **{:.2}** | {:.1} | {:.1} | **{:.2}** | {icp:.2} / {icx:.2} | {fcp:.2} / {fcx:.2} | {:.3} | {:.3} | {} | {} | {} |",
             it.len(),
