@@ -1,12 +1,15 @@
 //! Entry points: signatures, names, the batch loop, and the rounding-mode
 //! bracket of the interval kernels.
 //!
-//! Each kernel kind has a single and a batch entry point (ABI table in
-//! [`super`]). The batch entry point is one loop over the records whose
-//! body is the single body ([`super::batch_loop`]). The interval and gradient
-//! entry points call `isoc_rm_enter` first and `isoc_rm_leave` before
-//! returning ([`super::mxcsr`]): a batch switches the mode once, not once
-//! per box.
+//! Each kernel kind has a batch entry point, and every kind but the point
+//! gradient a single one (ABI table in [`super`]). The batch entry point is
+//! one loop over the records whose body is the single body
+//! ([`super::batch_loop`]). The interval and gradient batch entry points
+//! call `isoc_rm_enter` first and `isoc_rm_leave` before returning
+//! ([`super::mxcsr`]): a batch switches the mode once, not once per box.
+//! Their single entry points call `isoc_rm_enter_probe` instead, which
+//! does not read the MXCSR of a caller that rounds to nearest (reading it
+//! stalls behind the previous call's restoring `ldmxcsr`).
 
 use cranelift_codegen::ir as clif;
 use cranelift_codegen::ir::{AbiParam, InstBuilder, Signature, StackSlotData, StackSlotKind};
@@ -40,7 +43,12 @@ pub(super) fn entry_sig(
     let (params, ret): (Vec<clif::Type>, Option<clif::Type>) = match (kind, batch) {
         (Kind::Point, false) => (vec![F64; 4], Some(F64)),
         (Kind::Point, true) | (Kind::PointGrad, true) => (vec![ptr, ptr, ptr, F64, ptr, I64], None),
-        // Only the point kind has a single entry point.
+        // The point-gradient kind has no single entry point.
+        (Kind::Interval, false) => {
+            s.returns.push(AbiParam::new(F64));
+            (vec![ptr, ptr], Some(F64))
+        }
+        (Kind::Grad, false) => (vec![ptr, ptr], Some(types::I8)),
         (_, _) => (vec![ptr, ptr, ptr, I64], None),
     };
     s.params.extend(params.into_iter().map(AbiParam::new));
@@ -84,42 +92,113 @@ pub(super) fn emit_entry(
             );
             env.b.ins().return_(&[r]);
         }
-        Kind::Interval | Kind::Grad => emit_box_batch(env, prog, kind, &params),
+        Kind::Interval | Kind::Grad if batch => emit_box_batch(env, prog, kind, &params),
+        Kind::Interval | Kind::Grad => emit_box_single(env, prog, kind, &params),
     }
 }
 
-/// The interval or gradient batch entry point, bracketed by the
-/// rounding-mode switch.
-fn emit_box_batch(env: &mut Env, prog: &ir::Program, kind: Kind, params: &[Value]) {
-    let save_slot =
-        env.b
-            .create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 8, 3));
-    let save = env.b.ins().stack_addr(env.ptr, save_slot, 0);
-    env.call_void(Helper::RmEnter, &[save]);
-    let f = Env::flags();
-    let stride = if kind == Kind::Interval { 16 } else { 64 };
+/// The variables `prog` reads (only those are loaded).
+fn used_vars(prog: &ir::Program) -> [bool; 4] {
     let mut used = [false; 4];
     for op in &prog.insts {
         if let ir::Op::Var(v) = op {
             used[v.index()] = true;
         }
     }
+    used
+}
+
+/// One box: reads the record at `ia`, stores the result at `oa`, returns
+/// the decoration.
+fn emit_box_record(
+    env: &mut Env,
+    prog: &ir::Program,
+    kind: Kind,
+    used: [bool; 4],
+    ia: Value,
+    oa: Value,
+) -> Value {
+    let input = box_input(env, used, ia);
+    store_box_result(env, prog, kind, input, oa)
+}
+
+/// The four input intervals of the record at `ia`, normalised; only the
+/// variables the program reads are loaded.
+fn box_input(env: &mut Env, used: [bool; 4], ia: Value) -> [(interval::Iv, interval::Flag); 4] {
+    [0, 1, 2, 3].map(|k| {
+        if used[k as usize] {
+            let lo_hi = env.read_lo_hi(ia, 16 * k);
+            interval::normalize(env, lo_hi)
+        } else {
+            let zero = env.b.ins().f64const(0.0);
+            ((zero, zero), None)
+        }
+    })
+}
+
+/// A stack slot for the caller's MXCSR.
+fn mxcsr_slot(env: &mut Env) -> clif::StackSlot {
+    env.b
+        .create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 8, 3))
+}
+
+/// The single-box interval or gradient entry point, bracketed by the
+/// probing mode switch ([`super::mxcsr::isoc_rm_enter_probe`]).
+///
+/// Everything the kernel returns is *stored* before the restoring call:
+/// Cranelift places a pure instruction at its first use, so a bound only
+/// returned (or a flag computed from it) would otherwise be computed after
+/// `isoc_rm_leave`, in the caller's rounding mode. The stores pin the
+/// whole body before the call (a call orders memory); the interval bounds
+/// are then reloaded from the slot and returned in registers, the
+/// gradient's flag likewise.
+fn emit_box_single(env: &mut Env, prog: &ir::Program, kind: Kind, params: &[Value]) {
+    // [caller's MXCSR (4 bytes), pad, lo, hi, flag]
+    let slot =
+        env.b
+            .create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 32, 3));
+    let f = Env::flags();
+    let save = env.b.ins().stack_addr(env.ptr, slot, 0);
+    env.call_void(Helper::RmEnterProbe, &[save]);
+    let input = box_input(env, used_vars(prog), params[0]);
+    let keep = env.b.ins().stack_addr(env.ptr, slot, 8);
+    let d = if kind == Kind::Interval {
+        let (iv, d) = interval::lower(env, prog, input);
+        env.store_iv(keep, 0, iv);
+        d
+    } else {
+        store_box_result(env, prog, kind, input, params[1])
+    };
+    env.b.ins().store(f, d, keep, 16);
+    let save = env.b.ins().stack_addr(env.ptr, slot, 0);
+    env.call_void(Helper::RmLeave, &[save]);
+    let keep = env.b.ins().stack_addr(env.ptr, slot, 8);
+    let d = env.b.ins().load(types::I8, f, keep, 16);
+    if kind == Kind::Interval {
+        env.b.ins().store(f, d, params[1], 0);
+        let lo = env.b.ins().load(types::F64, f, keep, 0);
+        let hi = env.b.ins().load(types::F64, f, keep, 8);
+        env.b.ins().return_(&[lo, hi]);
+    } else {
+        env.b.ins().return_(&[d]);
+    }
+}
+
+/// The interval or gradient batch entry point, bracketed by the
+/// rounding-mode switch.
+fn emit_box_batch(env: &mut Env, prog: &ir::Program, kind: Kind, params: &[Value]) {
+    let save_slot = mxcsr_slot(env);
+    let save = env.b.ins().stack_addr(env.ptr, save_slot, 0);
+    env.call_void(Helper::RmEnter, &[save]);
+    let f = Env::flags();
+    let stride = if kind == Kind::Interval { 16 } else { 64 };
+    let used = used_vars(prog);
     batch_loop(env, params[3], |env, i| {
         let in_off = env.b.ins().imul_imm_s(i, 64);
         let ia = env.b.ins().iadd(params[0], in_off);
         let out_off = env.b.ins().imul_imm_s(i, stride);
         let oa = env.b.ins().iadd(params[1], out_off);
-        // Only the variables the program reads are loaded.
-        let input = [0, 1, 2, 3].map(|k| {
-            if used[k as usize] {
-                let lo_hi = env.read_lo_hi(ia, 16 * k);
-                interval::normalize(env, lo_hi)
-            } else {
-                let zero = env.b.ins().f64const(0.0);
-                ((zero, zero), None)
-            }
-        });
-        let d = store_box_result(env, prog, kind, input, oa);
+        let d = emit_box_record(env, prog, kind, used, ia, oa);
         let da = env.b.ins().iadd(params[2], i);
         env.b.ins().store(f, d, da, 0);
     });

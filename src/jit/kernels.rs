@@ -16,8 +16,8 @@ use std::time::Duration;
 
 use super::module::{ModuleOwner, build};
 use super::{
-    BoxBatchFn, JitError, JitOptions, KernelInfo, Kind, POOL_STRIDE, PointBatchFn, PointFn,
-    PointGradBatchFn,
+    BoxBatchFn, BoxFn, IntervalFn, JitError, JitOptions, KernelInfo, Kind, POOL_STRIDE,
+    PointBatchFn, PointFn, PointGradBatchFn,
 };
 use crate::eval::grad::GradEval;
 use crate::interval::{DecInterval, Interval};
@@ -34,6 +34,14 @@ struct Entry<S, B> {
 }
 
 type Lazy<S, B> = OnceLock<Result<Entry<S, B>, JitError>>;
+
+/// The single-box entry point of the interval or gradient kind, in a
+/// module of its own (only single calls need it).
+struct One<F> {
+    f: F,
+    info: Vec<KernelInfo>,
+    _module: ModuleOwner,
+}
 
 /// Which implementation serves a kind.
 #[derive(Clone, Debug, PartialEq)]
@@ -53,6 +61,8 @@ pub struct Kernels {
     interval: Lazy<(), BoxBatchFn>,
     grad: Lazy<(), BoxBatchFn>,
     pgrad: Lazy<(), PointGradBatchFn>,
+    interval_one: OnceLock<Result<One<IntervalFn>, JitError>>,
+    grad_one: OnceLock<Result<One<BoxFn>, JitError>>,
     // Field order matters: the modules (code) are dropped before the pool,
     // and neither is touched but by the kernels.
     pool: Box<[f64]>,
@@ -100,9 +110,10 @@ impl Single for PointFn {
 
 impl Kernels {
     /// Checks `prog` and compiles the point, interval and gradient kernels
-    /// now (the point gradient on first use), with default options. An
-    /// error if any of them cannot be compiled — including a program over
-    /// [`JitOptions::jit_limit`]; [`Kernels::lazy`] never fails for that.
+    /// now, batch and single-box entry points (the point gradient on first
+    /// use), with default options. An error if any of them cannot be
+    /// compiled — including a program over [`JitOptions::jit_limit`];
+    /// [`Kernels::lazy`] never fails for that.
     pub fn compile(prog: &ir::Program) -> Result<Kernels, JitError> {
         Kernels::compile_with(prog, &JitOptions::default())
     }
@@ -110,12 +121,14 @@ impl Kernels {
     /// [`Kernels::compile`] with options.
     pub fn compile_with(prog: &ir::Program, opts: &JitOptions) -> Result<Kernels, JitError> {
         let k = Kernels::lazy(prog, opts)?;
-        k.prepare(&Kind::ALL);
+        rayon::join(|| k.prepare(&Kind::ALL), || k.grad_one_k().is_ok());
         for kind in Kind::ALL {
             if let Engine::Interpreter(e) = k.engine(kind) {
                 return Err(e);
             }
         }
+        k.interval_one_k()?;
+        k.grad_one_k()?;
         Ok(k)
     }
 
@@ -146,12 +159,17 @@ impl Kernels {
             interval: OnceLock::new(),
             grad: OnceLock::new(),
             pgrad: OnceLock::new(),
+            interval_one: OnceLock::new(),
+            grad_one: OnceLock::new(),
             pool,
         })
     }
 
     /// Compiles the given kinds now, in parallel (on rayon's pool), so
-    /// that later calls do not pay for it. Failures are remembered (see
+    /// that later calls do not pay for it: their batch entry points, and
+    /// for the interval kind the single-box entry point too (the octree's
+    /// emptiness proofs make single calls; the gradient's single-box entry
+    /// point is compiled on its first call). Failures are remembered (see
     /// [`Kernels::engine`]).
     pub fn prepare(&self, kinds: &[Kind]) {
         rayon::scope(|s| {
@@ -159,6 +177,11 @@ impl Kernels {
                 s.spawn(move |_| {
                     let _ = self.engine(kind);
                 });
+                if kind == Kind::Interval {
+                    s.spawn(move |_| {
+                        let _ = self.interval_one_k();
+                    });
+                }
             }
         });
     }
@@ -177,14 +200,35 @@ impl Kernels {
         }
     }
 
-    fn compile_kind<S: Single, B: Copy>(&self, kind: Kind) -> Result<Entry<S, B>, JitError> {
+    /// The module and entry points of `kind` named by `batches` (see
+    /// [`build`]), unless the program is over the JIT limit.
+    fn build(
+        &self,
+        kind: Kind,
+        batches: &[bool],
+    ) -> Result<(ModuleOwner, Vec<*const u8>, Vec<KernelInfo>), JitError> {
         if self.program.len() > self.opts.jit_limit {
             return Err(JitError::TooLarge {
                 len: self.program.len(),
                 limit: self.opts.jit_limit,
             });
         }
-        let (module, p, info) = build(&self.program, self.pool.as_ptr() as i64, &self.opts, kind)?;
+        build(
+            &self.program,
+            self.pool.as_ptr() as i64,
+            &self.opts,
+            kind,
+            batches,
+        )
+    }
+
+    fn compile_kind<S: Single, B: Copy>(&self, kind: Kind) -> Result<Entry<S, B>, JitError> {
+        let batches: &[bool] = if kind == Kind::Point {
+            &[false, true]
+        } else {
+            &[true]
+        };
+        let (module, p, info) = self.build(kind, batches)?;
         // SAFETY: `p` are the finalized entry points of `kind` (single then
         // batch for the point kind, batch only otherwise: `S::from_code`
         // takes the first of two or none), declared with `entry_sig`'s
@@ -203,6 +247,35 @@ impl Kernels {
             info,
             _module: module,
         })
+    }
+
+    /// The single-box entry point of the interval or gradient kind.
+    fn compile_one<F: Copy>(&self, kind: Kind) -> Result<One<F>, JitError> {
+        let (module, p, info) = self.build(kind, &[false])?;
+        // SAFETY: `p[0]` is the finalized single-box entry point of `kind`,
+        // declared with `entry_sig(kind, false)`: `IntervalFn` for the
+        // interval kind and `BoxFn` for the gradient, the types `F` stands
+        // for in `interval_one_k` and `grad_one_k`; the code lives as long
+        // as `module`, which `One` owns.
+        let f = unsafe { entry_fn::<F>(p[0]) };
+        Ok(One {
+            f,
+            info,
+            _module: module,
+        })
+    }
+
+    #[inline]
+    fn interval_one_k(&self) -> Result<&One<IntervalFn>, JitError> {
+        let r = self
+            .interval_one
+            .get_or_init(|| self.compile_one(Kind::Interval));
+        r.as_ref().map_err(Clone::clone)
+    }
+    #[inline]
+    fn grad_one_k(&self) -> Result<&One<BoxFn>, JitError> {
+        let r = self.grad_one.get_or_init(|| self.compile_one(Kind::Grad));
+        r.as_ref().map_err(Clone::clone)
     }
 
     fn point_k(&self) -> Result<&Entry<PointFn, PointBatchFn>, JitError> {
@@ -233,7 +306,13 @@ impl Kernels {
         if let Some(Ok(e)) = self.point.get() {
             v.extend(e.info.iter().cloned());
         }
+        if let Some(Ok(e)) = self.interval_one.get() {
+            v.extend(e.info.iter().cloned());
+        }
         if let Some(Ok(e)) = self.interval.get() {
+            v.extend(e.info.iter().cloned());
+        }
+        if let Some(Ok(e)) = self.grad_one.get() {
             v.extend(e.info.iter().cloned());
         }
         if let Some(Ok(e)) = self.grad.get() {
@@ -326,18 +405,25 @@ impl Kernels {
         })
     }
 
-    /// Enclosure of `f` over the box `[x, y, z, t]`.
+    /// Enclosure of `f` over the box `[x, y, z, t]`, by the single-box
+    /// entry point (compiled on the first call); the same bounds and flag
+    /// as [`Kernels::interval_batch`] on one record.
+    #[inline]
     pub fn interval(&self, input: [Interval; 4]) -> DecInterval {
-        let mut out = [0.0; 2];
-        let mut d = [false];
-        self.interval_batch(&flatten(input), &mut out, &mut d)
-            .expect("one record");
-        DecInterval {
-            iv: Interval {
-                lo: out[0],
-                hi: out[1],
-            },
-            defined: d[0],
+        match self.interval_one_k() {
+            Ok(k) => {
+                let b = flatten(input);
+                let mut d = 0u8;
+                // SAFETY: `b` is one input record (8 f64) and `d` one
+                // byte; the kernel reads and writes only those and the
+                // pool `self` keeps alive.
+                let r = unsafe { (k.f)(b.as_ptr(), &mut d) };
+                DecInterval {
+                    iv: Interval { lo: r.lo, hi: r.hi },
+                    defined: d != 0,
+                }
+            }
+            Err(_) => crate::eval::interval::eval(&self.program, input),
         }
     }
 
@@ -356,13 +442,21 @@ impl Kernels {
         })
     }
 
-    /// `(F, ∂F/∂x, ∂F/∂y, ∂F/∂z)` enclosed over the box `[x, y, z, t]`.
+    /// `(F, ∂F/∂x, ∂F/∂y, ∂F/∂z)` enclosed over the box `[x, y, z, t]`,
+    /// by the single-box entry point (as [`Kernels::interval`]).
+    #[inline]
     pub fn grad(&self, input: [Interval; 4]) -> GradEval {
-        let mut out = [0.0; 8];
-        let mut d = [false];
-        self.grad_batch(&flatten(input), &mut out, &mut d)
-            .expect("one record");
-        grad_record(&out, d[0])
+        match self.grad_one_k() {
+            Ok(k) => {
+                let b = flatten(input);
+                let mut out = [0.0; 8];
+                // SAFETY: one input record (8 f64) and one output record
+                // (8 f64), as for `interval`.
+                let d = unsafe { (k.f)(b.as_ptr(), out.as_mut_ptr()) };
+                grad_record(&out, d != 0)
+            }
+            Err(_) => crate::eval::grad::eval(&self.program, input),
+        }
     }
 
     /// Batch gradient: `input` `n` records of 8 f64, `out` `n` records of 8
@@ -418,6 +512,7 @@ impl Kernels {
     }
 }
 
+#[inline]
 fn flatten(input: [Interval; 4]) -> [f64; 8] {
     let mut r = [0.0; 8];
     for (k, iv) in input.iter().enumerate() {

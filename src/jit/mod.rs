@@ -30,8 +30,11 @@
 //!
 //! Kernels never allocate, never unwind, and touch no memory but their
 //! arguments, their stack and the constant pool owned by [`Kernels`]. The
-//! interval kernels give the caller back its MXCSR (rounding mode and
-//! exception flags) unchanged.
+//! interval batch kernels give the caller back its MXCSR (rounding mode
+//! and exception flags) unchanged; the single-box ones give back the
+//! caller's rounding direction — bit for bit its MXCSR unless it rounds to
+//! nearest, when it gets the default one (see
+//! [`mxcsr::isoc_rm_enter_probe`]).
 //!
 //! # Size and compile time
 //!
@@ -55,11 +58,15 @@
 //! | point batch | `fn(xs, ys, zs: *const f64, t: f64, out: *mut f64, n: u64)` | `xs ys zs out`: `n` f64 each (structure of arrays, 8-byte alignment suffices); `out[i] = f(xs[i], ys[i], zs[i], t)` |
 //! | interval batch | `fn(input: *const f64, out: *mut f64, defined: *mut u8, n: u64)` | `input`: `n` records of 8 f64 `[x.lo, x.hi, y.lo, y.hi, z.lo, z.hi, t.lo, t.hi]`; `out`: `n` records `[lo, hi]`; `defined`: `n` bytes, 1 when defined and continuous on the box, else 0 |
 //! | gradient batch | `fn(input: *const f64, out: *mut f64, defined: *mut u8, n: u64)` | `input`: `n` records of 8 as above; `out`: `n` records `[F.lo, F.hi, Fx.lo, Fx.hi, Fy.lo, Fy.hi, Fz.lo, Fz.hi]`; `defined`: `n` bytes |
+//! | interval (one box) | `fn(input: *const f64, defined: *mut u8) -> [lo, hi]` | one input record as in the batch form; the bounds are returned in `xmm0`, `xmm1` (a `#[repr(C)]` pair of `f64`), the flag written to `defined` |
+//! | gradient (one box) | `fn(input: *const f64, out: *mut f64) -> u8` | one record of each as in the batch form; returns the `defined` byte |
 //! | point gradient batch | `fn(xs, ys, zs: *const f64, t: f64, out: *mut f64, n: u64)` | `xs ys zs`: `n` f64 each; `out`: `n` records `[f, fx, fy, fz]` |
 //!
-//! Only the point kind has a single entry point; the others' single calls
-//! ([`Kernels::interval`], …) are batches of one, which halves their
-//! compile time for a loop of one iteration.
+//! The single-box entry points live in a module of their own, compiled on
+//! the first single call ([`Kernels::interval`], [`Kernels::grad`]) — the
+//! mesher only makes batch calls, so `mesh` never compiles them — or by
+//! [`Kernels::compile`]. The point gradient has no single entry point: a
+//! single call is a batch of one.
 //!
 //! The safe methods ([`Kernels::point`], [`Kernels::interval_batch`], …)
 //! check buffer lengths and call these.
@@ -126,6 +133,21 @@ pub(crate) type PointBatchFn =
     unsafe extern "C" fn(*const f64, *const f64, *const f64, f64, *mut f64, u64);
 /// Batch interval or gradient kernel.
 pub(crate) type BoxBatchFn = unsafe extern "C" fn(*const f64, *mut f64, *mut u8, u64);
+/// Single-box gradient kernel: one input record, one output record,
+/// returns the decoration (0 or 1).
+pub(crate) type BoxFn = unsafe extern "C" fn(*const f64, *mut f64) -> u8;
+/// Single-box interval kernel: one input record; writes the decoration (0
+/// or 1) and returns the bounds in registers.
+pub(crate) type IntervalFn = unsafe extern "C" fn(*const f64, *mut u8) -> LoHi;
+
+/// `[lo, hi]` as the single-box interval kernel returns it (in `xmm0`,
+/// `xmm1`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LoHi {
+    pub lo: f64,
+    pub hi: f64,
+}
 
 /// Batch point-gradient kernel (see the ABI table): `out` gets `n` records
 /// of 4 f64.

@@ -1,10 +1,11 @@
 //! Owning Cranelift JIT modules and compiling entry points into them.
 //!
 //! [`build`] makes a fresh [`JITModule`] for one kernel kind, declares the
-//! helpers of [`Helper`], lowers the single and batch entry points
-//! ([`super::entry`]), finalizes them and returns the module (in a
-//! [`ModuleOwner`], which frees the code when dropped) with the two
-//! function pointers and their [`KernelInfo`]. One module per kind lets
+//! helpers of [`Helper`], lowers the entry points asked for (single, batch
+//! or both; [`super::entry`]), finalizes them and returns the module (in a
+//! [`ModuleOwner`], which frees the code when dropped) with the function
+//! pointers and their [`KernelInfo`]. One module per kind (and one more
+//! for the single-box entry points, which only single calls need) lets
 //! the kinds compile independently, lazily and in parallel.
 
 use std::time::Instant;
@@ -71,22 +72,22 @@ fn new_module(opts: &JitOptions, large: bool) -> Result<JITModule, JitError> {
     Ok(JITModule::new(jb))
 }
 
-/// The module, the entry points of `kind` (finalized code: for the point
-/// kind the single then the batch entry point, for the others the batch
-/// entry point only — their single calls are batches of one) and their
-/// info. The module's memory is freed if anything fails.
+/// The module, the entry points of `kind` named by `batches` (`false`
+/// the single entry point, `true` the batch one; finalized code in that
+/// order) and their info. The module's memory is freed if anything fails.
 pub(super) fn build(
     prog: &ir::Program,
     pool_addr: i64,
     opts: &JitOptions,
     kind: Kind,
+    batches: &[bool],
 ) -> Result<(ModuleOwner, Vec<*const u8>, Vec<KernelInfo>), JitError> {
     let large = prog.len() > opts.single_pass_above;
     let mut owner = ModuleOwner(Some(new_module(opts, large)?));
     let Some(module) = owner.0.as_mut() else {
         return Err(JitError::Target("no module".into()));
     };
-    let (p, info) = define_entries(module, prog, pool_addr, opts, kind)?;
+    let (p, info) = define_entries(module, prog, pool_addr, opts, kind, batches)?;
     Ok((owner, p, info))
 }
 
@@ -96,6 +97,7 @@ fn define_entries(
     pool_addr: i64,
     opts: &JitOptions,
     kind: Kind,
+    batches: &[bool],
 ) -> Result<(Vec<*const u8>, Vec<KernelInfo>), JitError> {
     let ptr = module.target_config().pointer_type();
     let cc = module.isa().default_call_conv();
@@ -115,11 +117,6 @@ fn define_entries(
     let mut fctx = FunctionBuilderContext::new();
     let mut ids = Vec::new();
     let mut info = Vec::new();
-    let batches: &[bool] = if kind == Kind::Point {
-        &[false, true]
-    } else {
-        &[true]
-    };
     for &batch in batches {
         let t0 = Instant::now();
         let name = entry_name(kind, batch);

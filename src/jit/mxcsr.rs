@@ -7,13 +7,23 @@
 //! hardware rounding toward +∞ (see [`super::rounding`]). The mode is a
 //! per-thread register (MXCSR on x86-64), so:
 //!
-//! - a kernel calls [`isoc_rm_enter`] first, which saves the caller's
-//!   MXCSR into a kernel stack slot and loads [`MXCSR_UP`] (round up, all
-//!   exceptions masked, no flush-to-zero, no denormals-are-zero — whatever
-//!   the caller had);
+//! - a batch kernel calls [`isoc_rm_enter`] first, which saves the
+//!   caller's MXCSR into a kernel stack slot and loads [`MXCSR_UP`] (round
+//!   up, all exceptions masked, no flush-to-zero, no denormals-are-zero —
+//!   whatever the caller had); a single-box kernel calls
+//!   [`isoc_rm_enter_probe`], which does the same without reading the
+//!   MXCSR of a caller that rounds to nearest (it records
+//!   [`MXCSR_DEFAULT`] instead: reading the register stalls behind the
+//!   previous call's restore);
 //! - it calls [`isoc_rm_leave`] before every return, which reloads the
-//!   caller's saved MXCSR, flags included: the caller sees its own mode and
-//!   its own sticky exception flags, as if the kernel had not run;
+//!   saved MXCSR, flags included: the caller of a batch kernel sees its own
+//!   mode and its own sticky exception flags, as if the kernel had not run
+//!   (the caller of a single-box kernel too, unless it rounds to nearest:
+//!   then it gets [`MXCSR_DEFAULT`]);
+//! - every value a kernel returns is stored to memory before
+//!   [`isoc_rm_leave`] is called: Cranelift places a pure instruction at
+//!   its first use, and a call orders memory, so no arithmetic of the body
+//!   can be scheduled after the restore;
 //! - **no Rust code runs in round-up mode**: every Rust helper an interval
 //!   kernel calls (CORE-MATH transcendentals, division, the gradient chain
 //!   rules) is reached through a trampoline ([`trampoline!`]) that loads
@@ -56,6 +66,68 @@ pub unsafe extern "C" fn isoc_rm_enter(save: *mut u32) {
         "mov dword ptr [rsp - 8], {up}",
         "ldmxcsr dword ptr [rsp - 8]",
         "ret",
+        up = const MXCSR_UP,
+    )
+}
+
+/// [`isoc_rm_enter`] for single-box calls, without reading the MXCSR
+/// when the caller rounds to nearest.
+///
+/// `stmxcsr` waits for every `ldmxcsr` still in flight, so in a loop of
+/// single calls, each ending with the restoring `ldmxcsr`, every next
+/// call's save stalls (figures in `docs/jit.md`). This routine first
+/// *probes* the caller's rounding direction: `roundpd` with the "use
+/// MXCSR.RC" and "suppress inexact" immediate rounds `(0.5, 1.5)` to
+/// integers, which gives `(+0, 2)` exactly when the caller rounds to
+/// nearest (`(1, 2)` rounding up, `(0, 1)` down or toward zero), and
+/// raises no exception flag. Rounding to nearest, it records
+/// [`MXCSR_DEFAULT`] at `save` — the state Rust code runs in — without
+/// reading the register; otherwise it saves the MXCSR as
+/// [`isoc_rm_enter`] does. Either way it loads [`MXCSR_UP`].
+///
+/// # Limits
+/// A caller that rounds to nearest gets [`MXCSR_DEFAULT`] back:
+/// flush-to-zero and denormals-are-zero off, sticky exception flags clear
+/// (probing those would take subnormal arithmetic, which costs a
+/// microcode assist of ~100 cycles). A caller in another rounding
+/// direction gets its whole MXCSR back, bit for bit. `roundpd` is SSE4.1:
+/// on a processor without it, [`super::helpers`] binds this routine's
+/// symbol to [`isoc_rm_enter`] instead.
+///
+/// # Safety
+/// As [`isoc_rm_enter`]; the processor has SSE4.1.
+#[unsafe(naked)]
+pub unsafe extern "C" fn isoc_rm_enter_probe(save: *mut u32) {
+    core::arch::naked_asm!(
+        // xmm0 = (0.5, 1.5), built in registers.
+        "mov rax, {half}",
+        "movq xmm0, rax",
+        "mov rax, {one_half}",
+        "movq xmm1, rax",
+        "unpcklpd xmm0, xmm1",
+        // Round to integers in the caller's direction (imm bit 2), no
+        // inexact exception (bit 3).
+        "roundpd xmm0, xmm0, 12",
+        "movq rax, xmm0",
+        "pextrq rcx, xmm0, 1",
+        // Nearest iff lane 0 is +0 (all bits clear) and lane 1 is 2.
+        "mov r8, {two}",
+        "xor rcx, r8",
+        "or rax, rcx",
+        "jnz 2f",
+        "mov dword ptr [rdi], {default}",
+        "jmp 3f",
+        "2:",
+        "stmxcsr dword ptr [rdi]",
+        "3:",
+        // The red zone below rsp is ours in a leaf routine.
+        "mov dword ptr [rsp - 8], {up}",
+        "ldmxcsr dword ptr [rsp - 8]",
+        "ret",
+        half = const 0x3FE0_0000_0000_0000u64,
+        one_half = const 0x3FF8_0000_0000_0000u64,
+        two = const 0x4000_0000_0000_0000u64,
+        default = const MXCSR_DEFAULT,
         up = const MXCSR_UP,
     )
 }

@@ -505,8 +505,8 @@ fn compile_info_is_reported() {
         },
     )
     .unwrap();
-    // Point: single and batch; interval, gradient: batch only.
-    assert_eq!(k.info().len(), 4);
+    // Point, interval, gradient: single and batch.
+    assert_eq!(k.info().len(), 6);
     for i in &k.info() {
         assert!(i.code_bytes > 0, "{}", i.name);
         assert!(
@@ -643,9 +643,12 @@ fn some_boxes() -> Vec<[Interval; 4]> {
     v
 }
 
-/// A kernel gives the caller back its MXCSR — rounding mode, flush-to-zero
-/// and sticky flags — and computes the same bounds whatever the caller's
-/// mode was (round down with FTZ/DAZ here).
+/// A kernel gives the caller back its rounding mode and computes the same
+/// bounds whatever the caller's mode was. Batch calls give back the whole
+/// MXCSR — rounding, flush-to-zero, denormals-are-zero, sticky flags — bit
+/// for bit. Single-box calls do too for a caller in a directed rounding
+/// mode; a caller rounding to nearest gets the default MXCSR back (FTZ and
+/// DAZ off, flags clear: what `isoc_rm_enter_probe` documents).
 #[test]
 fn kernels_restore_the_callers_rounding_mode() {
     let k = Kernels::compile(&helper_sandwich()).unwrap();
@@ -653,58 +656,85 @@ fn kernels_restore_the_callers_rounding_mode() {
     let want_iv: Vec<_> = boxes.iter().map(|b| k.interval(*b)).collect();
     let want_gd: Vec<_> = boxes.iter().map(|b| k.grad(*b)).collect();
     assert_eq!(mxcsr::current() & 0xFFC0, mxcsr::MXCSR_DEFAULT);
-    // Round down (RC = 01), FTZ (bit 15), DAZ (bit 6), flags clear.
-    let odd = 0x3F80 | 0x8000 | 0x0040;
-    let mut got_iv = Vec::new();
-    let mut got_gd = Vec::new();
-    let mut seen = Vec::new();
-    for b in &boxes {
-        // SAFETY: only the kernel call and `stmxcsr` run in this mode; the
-        // default is restored before any float work is checked.
-        unsafe { mxcsr::set(odd) };
-        let r = k.interval(*b);
-        seen.push(mxcsr::current());
-        unsafe { mxcsr::set(odd) };
-        let g = k.grad(*b);
-        seen.push(mxcsr::current());
-        unsafe { mxcsr::set(mxcsr::MXCSR_DEFAULT) };
-        got_iv.push(r);
-        got_gd.push(g);
-    }
-    unsafe { mxcsr::set(mxcsr::MXCSR_DEFAULT) };
-    for m in seen {
-        assert_eq!(m, odd, "caller's MXCSR {odd:#x} came back as {m:#x}");
-    }
-    for (w, g) in want_iv.iter().zip(&got_iv) {
-        assert_eq!(
-            (w.iv.lo.to_bits(), w.iv.hi.to_bits(), w.defined),
-            (g.iv.lo.to_bits(), g.iv.hi.to_bits(), g.defined)
-        );
-    }
-    for (w, g) in want_gd.iter().zip(&got_gd) {
-        let bits = |e: &isoc::eval::GradEval| {
-            std::iter::once(e.value)
-                .chain(e.grad)
-                .flat_map(|i| [i.lo.to_bits(), i.hi.to_bits()])
-                .collect::<Vec<_>>()
-        };
-        assert_eq!(bits(w), bits(g));
-    }
-    // The batch entry points too.
+    let (ftz, daz) = (0x8000, 0x0040);
+    // (caller's MXCSR, what a single call gives back)
+    let modes = [
+        // Round down (RC = 01) with FTZ and DAZ, flags clear.
+        (0x3F80 | ftz | daz, 0x3F80 | ftz | daz),
+        // Round up (RC = 10) with the inexact and invalid flags set.
+        (0x5F80 | 0x21, 0x5F80 | 0x21),
+        // Toward zero (RC = 11) with the underflow flag.
+        (0x7F80 | 0x10, 0x7F80 | 0x10),
+        // Nearest with FTZ, DAZ and every flag: the default comes back.
+        (0x1F80 | ftz | daz | 0x3F, mxcsr::MXCSR_DEFAULT),
+    ];
     let mut input = Vec::new();
     for b in &boxes {
         input.extend(b.iter().flat_map(|i| [i.lo, i.hi]));
     }
-    let mut out = vec![0.0; 2 * boxes.len()];
-    let mut def = vec![false; boxes.len()];
-    unsafe { mxcsr::set(odd) };
-    k.interval_batch(&input, &mut out, &mut def).unwrap();
-    let m = mxcsr::current();
-    unsafe { mxcsr::set(mxcsr::MXCSR_DEFAULT) };
-    assert_eq!(m, odd);
-    for (i, w) in want_iv.iter().enumerate() {
-        assert_eq!(out[2 * i].to_bits(), w.iv.lo.to_bits());
-        assert_eq!(out[2 * i + 1].to_bits(), w.iv.hi.to_bits());
+    for (mode, single_back) in modes {
+        let mut got_iv = Vec::new();
+        let mut got_gd = Vec::new();
+        let mut seen = Vec::new();
+        for b in &boxes {
+            // SAFETY: only the kernel call and `stmxcsr` run in this mode;
+            // the default is restored before any float work is checked.
+            unsafe { mxcsr::set(mode) };
+            let r = k.interval(*b);
+            seen.push(mxcsr::current());
+            unsafe { mxcsr::set(mode) };
+            let g = k.grad(*b);
+            seen.push(mxcsr::current());
+            unsafe { mxcsr::set(mxcsr::MXCSR_DEFAULT) };
+            got_iv.push(r);
+            got_gd.push(g);
+        }
+        for m in seen {
+            assert_eq!(
+                m, single_back,
+                "single call: caller's MXCSR {mode:#x} came back as {m:#x}"
+            );
+        }
+        for (w, g) in want_iv.iter().zip(&got_iv) {
+            assert_eq!(
+                (w.iv.lo.to_bits(), w.iv.hi.to_bits(), w.defined),
+                (g.iv.lo.to_bits(), g.iv.hi.to_bits(), g.defined),
+                "caller's MXCSR {mode:#x}"
+            );
+        }
+        for (w, g) in want_gd.iter().zip(&got_gd) {
+            let bits = |e: &isoc::eval::GradEval| {
+                std::iter::once(e.value)
+                    .chain(e.grad)
+                    .flat_map(|i| [i.lo.to_bits(), i.hi.to_bits()])
+                    .chain([e.defined as u64])
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(bits(w), bits(g), "caller's MXCSR {mode:#x}");
+        }
+        // The batch entry points give back every bit.
+        let mut out = vec![0.0; 2 * boxes.len()];
+        let mut def = vec![false; boxes.len()];
+        let mut out8 = vec![0.0; 8 * boxes.len()];
+        unsafe { mxcsr::set(mode) };
+        k.interval_batch(&input, &mut out, &mut def).unwrap();
+        let m = mxcsr::current();
+        unsafe { mxcsr::set(mode) };
+        k.grad_batch(&input, &mut out8, &mut def).unwrap();
+        let m8 = mxcsr::current();
+        unsafe { mxcsr::set(mxcsr::MXCSR_DEFAULT) };
+        assert_eq!(
+            (m, m8),
+            (mode, mode),
+            "batch call, caller's MXCSR {mode:#x}"
+        );
+        for (i, w) in want_iv.iter().enumerate() {
+            assert_eq!(out[2 * i].to_bits(), w.iv.lo.to_bits());
+            assert_eq!(out[2 * i + 1].to_bits(), w.iv.hi.to_bits());
+        }
+        for (i, w) in want_gd.iter().enumerate() {
+            assert_eq!(out8[8 * i + 7].to_bits(), w.grad[2].hi.to_bits());
+        }
     }
 }
 
@@ -740,6 +770,42 @@ fn helpers_run_in_nearest_and_inline_ops_in_up() {
             );
         }
     }
+}
+
+/// The single-box entry points compute everything before they restore the
+/// caller's mode — also a flag that depends on a value nothing else uses.
+/// In `√(x·y)⁰` the value is `[1, 1]` whatever `x·y` is, and the flag is
+/// "`x·y ≥ 0` on the box". With `x·y`'s lower bound `−10⁻⁶⁰⁰` (the
+/// corner `−10⁻³⁰⁰ · 10⁻³⁰⁰`), rounded
+/// outward it is the smallest negative subnormal (not defined); rounded to
+/// nearest it would be `−0`, which a product computed after the restore
+/// would give, and the flag would wrongly say "defined".
+#[test]
+fn single_box_kernels_finish_before_restoring_the_mode() {
+    let p = Program {
+        insts: vec![
+            Op::Var(Var::X),
+            Op::Var(Var::Y),
+            Op::Binary(BinOp::Mul, Value(0), Value(1)),
+            Op::Unary(UnOp::Sqrt, Value(2)),
+            Op::Powi(Value(3), 0),
+        ],
+        output: Value(4),
+    };
+    let k = Kernels::compile(&p).unwrap();
+    let b = [
+        Interval::new(-1e-300, 1.0),
+        Interval::point(1e-300),
+        Interval::point(0.0),
+        Interval::point(0.0),
+    ];
+    assert!(!isoc::eval::interval::eval(&p, b).defined);
+    assert!(!k.interval(b).defined);
+    assert!(!k.grad(b).defined);
+    // Inside the domain the flag is true: the test can tell the two apart.
+    let inside = [Interval::new(1e-300, 1.0), b[1], b[2], b[3]];
+    assert!(k.interval(inside).defined);
+    assert!(k.grad(inside).defined);
 }
 
 /// `+`, `−`, `·`, `√`, squares and small powers whose results are

@@ -373,9 +373,9 @@ fn compiled_lazily_and_shareable() {
         output: Value(1),
     };
     let k = Kernels::compile(&prog).unwrap();
-    // The eager kernels only: point (single and batch), interval and
-    // gradient (batch entry points).
-    assert_eq!(k.info().len(), 4);
+    // The eager kernels only: point, interval and gradient (single and
+    // batch entry points).
+    assert_eq!(k.info().len(), 6);
     assert!(k.info().iter().all(|i| i.kind != Kind::PointGrad));
     // Concurrent first uses compile once and agree.
     let r: Vec<(f64, [f64; 3])> = std::thread::scope(|s| {
