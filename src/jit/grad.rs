@@ -24,13 +24,18 @@
 //! [`crate::eval::grad`], each value carries a value flag and a derivative
 //! flag: `a^0` has derivative 0 whatever `a`'s derivatives were, so only
 //! `a`'s value flag reaches it.
+//!
+//! The rules are [`GradNum`]'s, the interval-gradient kind of the one
+//! lowering ([`super::lower`]): each op's value by the interval kind's
+//! functions ([`super::interval`]), its derivatives by the rules here.
 
 use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{InstBuilder, Value, types};
 
 use super::interval::{self, Flag, Iv};
-use super::{Env, rounding};
-use crate::ir::{BinOp, Op, Program, UnOp};
+use super::lower::{NumKind, body};
+use super::{Env, helpers, rounding};
+use crate::ir::{BinOp, Const, Program, UnOp, Var};
 
 /// `(F, Fx, Fy, Fz)`.
 pub(super) type Dual = [Iv; 4];
@@ -45,13 +50,31 @@ enum D {
     V(Iv),
 }
 
-/// A value and its three derivative components.
+/// A value: its interval, its three derivative components, its value and
+/// derivative flags (as a rule's result, the op's own) and, for a constant
+/// of known sign, its bounds at compile time.
 #[derive(Clone, Copy)]
 struct G {
     v: Iv,
     d: [D; 3],
-    /// The value's bounds when it is a constant of known sign.
     k: Option<interval::Konst>,
+    /// "Defined and continuous on the box".
+    fv: Flag,
+    /// "Derivatives defined", tracked apart as in the reference: `a^0` has
+    /// derivative 0 whatever `a`'s derivatives were.
+    fd: Flag,
+}
+
+impl G {
+    fn new(v: Iv, d: [D; 3]) -> G {
+        G {
+            v,
+            d,
+            k: None,
+            fv: None,
+            fd: None,
+        }
+    }
 }
 
 /// The component as an interval in the kernel's `(−lo, hi)` form
@@ -70,10 +93,14 @@ fn d_add(env: &mut Env, sub: bool, a: D, b: D, zero: Value, one: Iv) -> D {
     match (a, b) {
         (x, D::Zero) => x,
         (D::Zero, y) if !sub => y,
-        (D::Zero, y) => D::V(neg(iv_of(y, zero, one))),
+        (D::Zero, y) => D::V(interval::neg(iv_of(y, zero, one))),
         (x, y) => {
-            let op = if sub { BinOp::Sub } else { BinOp::Add };
-            D::V(interval::binary(env, op, iv_of(x, zero, one), iv_of(y, zero, one)).0)
+            let (x, y) = (iv_of(x, zero, one), iv_of(y, zero, one));
+            D::V(if sub {
+                interval::sub(env, x, y)
+            } else {
+                interval::add(env, x, y)
+            })
         }
     }
 }
@@ -87,11 +114,6 @@ fn d_scale(env: &mut Env, x: Iv, xk: Option<interval::Konst>, d: D) -> D {
         D::One => D::V(x),
         D::V(iv) => D::V(interval::mul_known(env, x, xk, iv, None)),
     }
-}
-
-/// `−[lo, hi] = [−hi, −lo]`: in `(−lo, hi)` form, a swap.
-fn neg((n, h): Iv) -> Iv {
-    (h, n)
 }
 
 /// `x / t` for `t = (−t_lo, t_hi)` with `pos` (i8) saying `t_lo > 0`:
@@ -128,250 +150,271 @@ fn own_flags(env: &mut Env, value: Option<Value>, deriv: Value) -> Value {
     env.b.ins().bor(fv, dv)
 }
 
-/// Emits the body; returns the output tuple and the decoration (i8).
-pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (Dual, Value) {
-    let flags_in: [Flag; 4] = input.map(|(_, f)| f);
-    let input: [Iv; 4] = input.map(|(iv, _)| iv);
-    let zero = env.b.ins().f64const(0.0);
-    let one = (env.b.ins().f64const(-1.0), env.b.ins().f64const(1.0));
-    let full = |g: G| -> Dual {
-        [
-            g.v,
-            iv_of(g.d[0], zero, one),
-            iv_of(g.d[1], zero, one),
-            iv_of(g.d[2], zero, one),
-        ]
-    };
-    let from = |r: Dual| G {
-        v: r[0],
-        d: [D::V(r[1]), D::V(r[2]), D::V(r[3])],
-        k: None,
-    };
-    // Per value: the tuple, the value's flag F and the derivatives' flag D
-    // (tracked apart as in the reference: `a^0` has derivative 0 whatever
-    // `a`'s derivatives were).
-    let mut vals: Vec<(G, Flag, Flag)> = Vec::with_capacity(prog.len());
-    for (i, op) in prog.insts.iter().enumerate() {
-        let (v, d): (G, Option<Value>) = match *op {
-            Op::Var(var) => {
-                let mut g = G {
-                    v: input[var.index()],
-                    d: [D::Zero; 3],
-                    k: None,
-                };
-                if var.index() < 3 {
-                    g.d[var.index()] = D::One;
-                }
-                (g, None)
-            }
-            Op::Const(_) => {
-                let (v, d) = interval::lower_op(env, i, op, &[], &input);
-                let k = interval::konst(prog, crate::ir::Value(i as u32));
-                (
-                    G {
-                        v,
-                        d: [D::Zero; 3],
-                        k,
-                    },
-                    d,
-                )
-            }
-            Op::Unary(UnOp::Neg, a) => {
-                let a = vals[a.index()].0;
-                let v = neg(a.v);
-                let d = a.d.map(|c| match c {
-                    D::Zero => D::Zero,
-                    c => D::V(neg(iv_of(c, zero, one))),
-                });
-                (G { v, d, k: None }, None)
-            }
-            Op::Unary(UnOp::Square, a) => {
-                let a = vals[a.index()].0;
-                let (f, _) = interval::unary(env, UnOp::Square, a.v);
-                // d(a²) = (2a)·da; doubling is exact but for overflow,
-                // which goes outward: both `(−lo, hi)` halves round up.
-                let two_a = (
-                    rounding::add_up(&mut env.b, a.v.0, a.v.0),
-                    rounding::add_up(&mut env.b, a.v.1, a.v.1),
-                );
-                let d = a.d.map(|c| d_scale(env, two_a, None, c));
-                (G { v: f, d, k: None }, None)
-            }
-            Op::Binary(op @ (BinOp::Add | BinOp::Sub | BinOp::Mul), a, b) => {
-                let (a, b) = (vals[a.index()].0, vals[b.index()].0);
-                let g = if op == BinOp::Mul {
-                    let v = interval::mul_known(env, a.v, a.k, b.v, b.k);
-                    let d = std::array::from_fn(|k| {
-                        let p = d_scale(env, a.v, a.k, b.d[k]);
-                        let q = d_scale(env, b.v, b.k, a.d[k]);
-                        d_add(env, false, p, q, zero, one)
-                    });
-                    G { v, d, k: None }
-                } else {
-                    let v = interval::binary(env, op, a.v, b.v).0;
-                    let d = std::array::from_fn(|k| {
-                        d_add(env, op == BinOp::Sub, a.d[k], b.d[k], zero, one)
-                    });
-                    G { v, d, k: None }
-                };
-                (g, None)
-            }
-            Op::Powi(a, n) if (1..=interval::INLINE_POWI_MAX).contains(&n) => {
-                // d(aⁿ) = (n·aⁿ⁻¹)·da, with the interval kernel's inline
-                // powers (the reference's rule, inline).
-                let a = vals[a.index()].0;
-                let v = interval::powi(env, a.v, n as u64);
-                let d = if n == 1 {
-                    a.d
-                } else {
-                    let p = interval::powi(env, a.v, (n - 1) as u64);
-                    let c = (
-                        env.b.ins().f64const(-(n as f64)),
-                        env.b.ins().f64const(n as f64),
-                    );
-                    let k = interval::Konst {
-                        lo: n as f64,
-                        hi: n as f64,
-                    };
-                    let f = interval::mul_by_konst(env, p, c, k);
-                    a.d.map(|c| d_scale(env, f, None, c))
-                };
-                (G { v, d, k: None }, None)
-            }
-            Op::Unary(UnOp::Abs, a) => {
-                // The reference's rule: `da` where a > 0, `−da` where
-                // a < 0, else `[−m, m]` with `m = max |da|`, not
-                // differentiable.
-                let a = vals[a.index()].0;
-                let (v, _) = interval::unary(env, UnOp::Abs, a.v);
-                let zero = env.b.ins().f64const(0.0);
-                let lo = env.b.ins().fneg(a.v.0);
-                let pos = env.b.ins().fcmp(FloatCC::GreaterThan, lo, zero);
-                let neg_ = env.b.ins().fcmp(FloatCC::LessThan, a.v.1, zero);
-                let sure = env.b.ins().bor(pos, neg_);
-                let d = a.d.map(|c| match c {
-                    D::Zero => D::Zero,
-                    c => {
-                        let x = iv_of(c, zero, one);
-                        let m = env.b.ins().fmax(x.0, x.1);
-                        let nx = neg(x);
-                        let r = select_iv(env, neg_, nx, (m, m));
-                        D::V(select_iv(env, pos, x, r))
-                    }
-                });
-                (G { v, d, k: None }, Some(own_flags(env, None, sure)))
-            }
-            Op::Binary(op @ (BinOp::Min | BinOp::Max), a, b) => {
-                // The reference's rule: the derivative of the operand
-                // that is certainly chosen, else the hull of both, not
-                // differentiable.
-                let (a, b) = (vals[a.index()].0, vals[b.index()].0);
-                let (v, _) = interval::binary(env, op, a.v, b.v);
-                let (lo_a, lo_b) = (env.b.ins().fneg(a.v.0), env.b.ins().fneg(b.v.0));
-                let (first, second) = if op == BinOp::Min {
-                    (
-                        env.b.ins().fcmp(FloatCC::LessThan, a.v.1, lo_b),
-                        env.b.ins().fcmp(FloatCC::LessThan, b.v.1, lo_a),
-                    )
-                } else {
-                    (
-                        env.b.ins().fcmp(FloatCC::GreaterThan, lo_a, b.v.1),
-                        env.b.ins().fcmp(FloatCC::GreaterThan, lo_b, a.v.1),
-                    )
-                };
-                let sure = env.b.ins().bor(first, second);
-                let zero = env.b.ins().f64const(0.0);
-                let d = std::array::from_fn(|k| match (a.d[k], b.d[k]) {
-                    (D::Zero, D::Zero) => D::Zero,
-                    (x, y) => {
-                        let (x, y) = (iv_of(x, zero, one), iv_of(y, zero, one));
-                        let hull = (env.b.ins().fmax(x.0, y.0), env.b.ins().fmax(x.1, y.1));
-                        let r = select_iv(env, second, y, hull);
-                        D::V(select_iv(env, first, x, r))
-                    }
-                });
-                (G { v, d, k: None }, Some(own_flags(env, None, sure)))
-            }
-            Op::Unary(UnOp::Sqrt, a) => {
-                // d√a = da / (2√a), the reference's rule, inline: value
-                // flag "a ≥ 0 on the box", derivative flag "2√a > 0".
-                let a = vals[a.index()].0;
-                let (v, fv) = interval::unary(env, UnOp::Sqrt, a.v);
-                let t = (
-                    rounding::add_up(&mut env.b, v.0, v.0),
-                    rounding::add_up(&mut env.b, v.1, v.1),
-                );
-                let zero = env.b.ins().f64const(0.0);
-                let t_lo = env.b.ins().fneg(t.0);
-                let pos = env.b.ins().fcmp(
-                    cranelift_codegen::ir::condcodes::FloatCC::GreaterThan,
-                    t_lo,
-                    zero,
-                );
-                let d = a.d.map(|c| match c {
-                    D::Zero => D::Zero,
-                    c => D::V(div_by_positive(env, iv_of(c, zero, one), t, t_lo, pos)),
-                });
-                (G { v, d, k: None }, Some(own_flags(env, fv, pos)))
-            }
-            Op::Unary(u, a) => {
-                let (r, d) = env.call_gd(
-                    super::helpers::unop_code(u),
-                    full(vals[a.index()].0),
-                    None,
-                    0,
-                );
-                (from(r), d)
-            }
-            Op::Binary(op, a, b) => {
-                let (r, d) = env.call_gd(
-                    super::helpers::binop_code(op) + GD_BINARY_BASE,
-                    full(vals[a.index()].0),
-                    Some(full(vals[b.index()].0)),
-                    0,
-                );
-                (from(r), d)
-            }
-            Op::Powi(a, n) => {
-                let (r, d) = env.call_gd(
-                    super::helpers::GD_POWI_CODE + GD_BINARY_BASE,
-                    full(vals[a.index()].0),
-                    None,
-                    n,
-                );
-                (from(r), d)
-            }
+/// `g` with the own flags `r` in the helpers' encoding (bit 0 the value's,
+/// bit 1 the derivatives').
+fn with_flags(env: &mut Env, g: G, r: Value) -> G {
+    let b = &mut env.b;
+    let fv = b.ins().band_imm_u(r, 1);
+    let fd = b.ins().ushr_imm_u(r, 1);
+    G {
+        fv: Some(fv),
+        fd: Some(fd),
+        ..g
+    }
+}
+
+/// The interval-gradient kind of the one lowering ([`super::lower`]),
+/// holding the SSA constants `0` and `[1, 1]` that known components
+/// materialise as.
+struct GradNum {
+    zero: Value,
+    one: Iv,
+}
+
+impl GradNum {
+    /// Emits the constants.
+    fn new(env: &mut Env) -> GradNum {
+        let zero = env.b.ins().f64const(0.0);
+        let one = (env.b.ins().f64const(-1.0), env.b.ins().f64const(1.0));
+        GradNum { zero, one }
+    }
+
+    /// The tuple as four intervals.
+    fn full(&self, g: G) -> Dual {
+        let c = |d| iv_of(d, self.zero, self.one);
+        [g.v, c(g.d[0]), c(g.d[1]), c(g.d[2])]
+    }
+
+    /// A helper's result `r` with its flags `f` (helpers' encoding).
+    fn from(&self, env: &mut Env, (r, f): (Dual, Option<Value>)) -> G {
+        let g = G::new(r[0], [D::V(r[1]), D::V(r[2]), D::V(r[3])]);
+        match f {
+            Some(f) => with_flags(env, g, f),
+            None => g,
+        }
+    }
+
+    /// `min` (`is_min`) or `max`, the reference's rule: the derivative of
+    /// the operand that is certainly chosen, else the hull of both, not
+    /// differentiable.
+    fn select(&self, env: &mut Env, is_min: bool, a: G, b: G) -> (G, bool) {
+        let v = if is_min {
+            interval::min(env, a.v, b.v)
+        } else {
+            interval::max(env, a.v, b.v)
         };
-        // Own flags: the helpers return bit 0 = value defined, bit 1 =
-        // derivatives defined; inline ops only have a value flag.
-        let (mut f, mut dd) = match (*op, d) {
-            (Op::Var(var), _) => (flags_in[var.index()], None),
-            (Op::Unary(..) | Op::Binary(..) | Op::Powi(..), Some(r))
-                if !matches!(
-                    op,
-                    Op::Unary(UnOp::Neg | UnOp::Square, _)
-                        | Op::Binary(BinOp::Add | BinOp::Sub | BinOp::Mul, _, _)
-                ) =>
-            {
-                let b = &mut env.b;
-                let fv = b.ins().band_imm_u(r, 1);
-                let dv = b.ins().ushr_imm_u(r, 1);
-                (Some(fv), Some(dv))
-            }
-            (_, d) => (d, None),
+        let (lo_a, lo_b) = (env.b.ins().fneg(a.v.0), env.b.ins().fneg(b.v.0));
+        let (first, second) = if is_min {
+            (
+                env.b.ins().fcmp(FloatCC::LessThan, a.v.1, lo_b),
+                env.b.ins().fcmp(FloatCC::LessThan, b.v.1, lo_a),
+            )
+        } else {
+            (
+                env.b.ins().fcmp(FloatCC::GreaterThan, lo_a, b.v.1),
+                env.b.ins().fcmp(FloatCC::GreaterThan, lo_b, a.v.1),
+            )
         };
-        for a in op.args() {
-            let (_, fa, da) = vals[a.index()];
-            f = interval::and(env, f, fa);
-            if !matches!(op, Op::Powi(_, 0)) {
-                dd = interval::and(env, dd, da);
+        let sure = env.b.ins().bor(first, second);
+        let zero = env.b.ins().f64const(0.0);
+        let d = std::array::from_fn(|k| match (a.d[k], b.d[k]) {
+            (D::Zero, D::Zero) => D::Zero,
+            (x, y) => {
+                let (x, y) = (iv_of(x, zero, self.one), iv_of(y, zero, self.one));
+                let hull = (env.b.ins().fmax(x.0, y.0), env.b.ins().fmax(x.1, y.1));
+                let r = select_iv(env, second, y, hull);
+                D::V(select_iv(env, first, x, r))
+            }
+        });
+        let f = own_flags(env, None, sure);
+        (with_flags(env, G::new(v, d), f), true)
+    }
+}
+
+impl NumKind for GradNum {
+    type In = (Iv, Flag);
+    type V = G;
+    /// The rule's tuple with its own flags, and whether the operands'
+    /// derivative flags reach it (not for `a^0`).
+    type Out = (G, bool);
+
+    fn var(&self, _env: &mut Env, var: Var, (v, fv): (Iv, Flag)) -> (G, bool) {
+        let mut d = [D::Zero; 3];
+        if var.index() < 3 {
+            d[var.index()] = D::One;
+        }
+        (G { fv, ..G::new(v, d) }, true)
+    }
+
+    fn konst(&self, env: &mut Env, i: usize, c: Const) -> (G, bool) {
+        let (v, fv) = interval::constant(env, i, c);
+        let g = G {
+            k: interval::Konst::of(c),
+            fv,
+            ..G::new(v, [D::Zero; 3])
+        };
+        (g, true)
+    }
+
+    fn neg(&self, _env: &mut Env, a: G) -> (G, bool) {
+        let d = a.d.map(|c| match c {
+            D::Zero => D::Zero,
+            c => D::V(interval::neg(iv_of(c, self.zero, self.one))),
+        });
+        (G::new(interval::neg(a.v), d), true)
+    }
+
+    fn square(&self, env: &mut Env, a: G) -> (G, bool) {
+        let f = interval::square(env, a.v);
+        // d(a²) = (2a)·da; doubling is exact but for overflow, which goes
+        // outward: both `(−lo, hi)` halves round up.
+        let two_a = (
+            rounding::add_up(&mut env.b, a.v.0, a.v.0),
+            rounding::add_up(&mut env.b, a.v.1, a.v.1),
+        );
+        let d = a.d.map(|c| d_scale(env, two_a, None, c));
+        (G::new(f, d), true)
+    }
+
+    fn add(&self, env: &mut Env, a: G, b: G) -> (G, bool) {
+        let v = interval::add(env, a.v, b.v);
+        let d = std::array::from_fn(|k| d_add(env, false, a.d[k], b.d[k], self.zero, self.one));
+        (G::new(v, d), true)
+    }
+
+    fn sub(&self, env: &mut Env, a: G, b: G) -> (G, bool) {
+        let v = interval::sub(env, a.v, b.v);
+        let d = std::array::from_fn(|k| d_add(env, true, a.d[k], b.d[k], self.zero, self.one));
+        (G::new(v, d), true)
+    }
+
+    /// `(ab)' = a·b' + b·a'`.
+    fn mul(&self, env: &mut Env, a: G, b: G) -> (G, bool) {
+        let v = interval::mul_known(env, a.v, a.k, b.v, b.k);
+        let d = std::array::from_fn(|k| {
+            let p = d_scale(env, a.v, a.k, b.d[k]);
+            let q = d_scale(env, b.v, b.k, a.d[k]);
+            d_add(env, false, p, q, self.zero, self.one)
+        });
+        (G::new(v, d), true)
+    }
+
+    /// d(aⁿ) = (n·aⁿ⁻¹)·da with the interval kernel's inline powers for
+    /// `1 ≤ n ≤ 8` (the reference's rule, inline), else the helper.
+    fn powi(&self, env: &mut Env, _i: usize, a: G, n: i64) -> (G, bool) {
+        if !(1..=interval::INLINE_POWI_MAX).contains(&n) {
+            let r = env.call_gd(
+                helpers::GD_POWI_CODE + GD_BINARY_BASE,
+                self.full(a),
+                None,
+                n,
+            );
+            return (self.from(env, r), n != 0);
+        }
+        let v = interval::powi(env, a.v, n as u64);
+        let d = if n == 1 {
+            a.d
+        } else {
+            let p = interval::powi(env, a.v, (n - 1) as u64);
+            let c = (
+                env.b.ins().f64const(-(n as f64)),
+                env.b.ins().f64const(n as f64),
+            );
+            let k = interval::Konst {
+                lo: n as f64,
+                hi: n as f64,
+            };
+            let f = interval::mul_by_konst(env, p, c, k);
+            a.d.map(|c| d_scale(env, f, None, c))
+        };
+        (G::new(v, d), true)
+    }
+
+    /// The reference's rule: `da` where a > 0, `−da` where a < 0, else
+    /// `[−m, m]` with `m = max |da|`, not differentiable.
+    fn abs(&self, env: &mut Env, a: G) -> (G, bool) {
+        let v = interval::abs(env, a.v);
+        let zero = env.b.ins().f64const(0.0);
+        let lo = env.b.ins().fneg(a.v.0);
+        let pos = env.b.ins().fcmp(FloatCC::GreaterThan, lo, zero);
+        let neg_ = env.b.ins().fcmp(FloatCC::LessThan, a.v.1, zero);
+        let sure = env.b.ins().bor(pos, neg_);
+        let d = a.d.map(|c| match c {
+            D::Zero => D::Zero,
+            c => {
+                let x = iv_of(c, zero, self.one);
+                let m = env.b.ins().fmax(x.0, x.1);
+                let nx = interval::neg(x);
+                let r = select_iv(env, neg_, nx, (m, m));
+                D::V(select_iv(env, pos, x, r))
+            }
+        });
+        let f = own_flags(env, None, sure);
+        (with_flags(env, G::new(v, d), f), true)
+    }
+
+    fn min(&self, env: &mut Env, a: G, b: G) -> (G, bool) {
+        self.select(env, true, a, b)
+    }
+
+    fn max(&self, env: &mut Env, a: G, b: G) -> (G, bool) {
+        self.select(env, false, a, b)
+    }
+
+    /// d√a = da / (2√a), the reference's rule, inline: value flag "a ≥ 0
+    /// on the box", derivative flag "2√a > 0".
+    fn sqrt(&self, env: &mut Env, a: G) -> (G, bool) {
+        let (v, fv) = interval::sqrt(env, a.v);
+        let t = (
+            rounding::add_up(&mut env.b, v.0, v.0),
+            rounding::add_up(&mut env.b, v.1, v.1),
+        );
+        let zero = env.b.ins().f64const(0.0);
+        let t_lo = env.b.ins().fneg(t.0);
+        let pos = env.b.ins().fcmp(FloatCC::GreaterThan, t_lo, zero);
+        let d = a.d.map(|c| match c {
+            D::Zero => D::Zero,
+            c => D::V(div_by_positive(env, iv_of(c, zero, self.one), t, t_lo, pos)),
+        });
+        let f = own_flags(env, fv, pos);
+        (with_flags(env, G::new(v, d), f), true)
+    }
+
+    fn unary_call(&self, env: &mut Env, u: UnOp, a: G) -> (G, bool) {
+        let r = env.call_gd(helpers::unop_code(u), self.full(a), None, 0);
+        (self.from(env, r), true)
+    }
+
+    fn binary_call(&self, env: &mut Env, op: BinOp, a: G, b: G) -> (G, bool) {
+        let r = env.call_gd(
+            helpers::binop_code(op) + GD_BINARY_BASE,
+            self.full(a),
+            Some(self.full(b)),
+            0,
+        );
+        (self.from(env, r), true)
+    }
+
+    /// The own flags AND the operands' (value flags always, derivative
+    /// flags unless the rule said otherwise).
+    fn finish(&self, env: &mut Env, (g, reads_d): (G, bool), args: impl Iterator<Item = G>) -> G {
+        let (mut fv, mut fd) = (g.fv, g.fd);
+        for a in args {
+            fv = interval::and(env, fv, a.fv);
+            if reads_d {
+                fd = interval::and(env, fd, a.fd);
             }
         }
-        vals.push((v, f, dd));
+        G { fv, fd, ..g }
     }
-    let (g, f, dd) = vals[prog.output.index()];
-    let ok = interval::and(env, f, dd);
-    (full(g), interval::flag_value(env, ok))
+}
+
+/// Emits the body; returns the output tuple and the decoration (i8).
+pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (Dual, Value) {
+    let k = GradNum::new(env);
+    let g = body(env, &k, prog, input);
+    let ok = interval::and(env, g.fv, g.fd);
+    (k.full(g), interval::flag_value(env, ok))
 }
 
 /// Codes at or above this go to the binary gradient helper (minus it).

@@ -23,46 +23,125 @@
 //! | `sqrt` | `(−RD(√max(lo,0)), RU(√hi))`, empty when `hi < 0`; defined iff `lo ≥ 0` |
 //! | `powi a n`, `1 ≤ n ≤ 8` | exact monotone rules on `mig`/`mag` (even `n`) or the signed bounds (odd `n`), each product of the repeated squaring rounded in its direction |
 //!
-//! Everything else (`div`, other `powi`, transcendentals, `atan2`,
-//! `pow`) calls [`crate::interval`]'s per-op enclosures through
-//! [`super::helpers`], which return the op's decoration.
+//! (`powi a 0` is the pool's `[1, 1]`.) Everything else (`div`, other
+//! `powi`, transcendentals, `atan2`, `pow`) calls [`crate::interval`]'s
+//! per-op enclosures through [`super::helpers`], which return the op's
+//! decoration.
+//!
+//! Each rule is a function of this file on [`Iv`] (`add`, `mul_known`,
+//! `sqrt`, …); [`IntervalNum`], the interval kind of the one lowering
+//! ([`super::lower`]), calls them and carries the decorations. The
+//! interval-gradient kind ([`super::grad`]) computes its values with the
+//! same functions.
 
 use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{InstBuilder, Value, types};
 
+use super::lower::{NumKind, body};
 use super::{Env, rounding};
 use crate::interval::Interval;
-use crate::ir::{BinOp, Op, Program, UnOp};
+use crate::ir::{BinOp, Const, Program, UnOp, Var};
 
 /// An interval as two SSA values `(−lo, hi)` (see the module doc).
 pub(super) type Iv = (Value, Value);
 
-/// Emits the body; returns the output interval and the decoration (i8).
-/// Each value carries its own flag (`None`: statically true), the AND of
-/// its operands' flags and its op's, so that only ops the output depends
-/// on can clear it — as in the reference evaluator.
-pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (Iv, Value) {
-    let mut vals: Vec<(Iv, Flag)> = Vec::with_capacity(prog.len());
-    let ivs: [Iv; 4] = input.map(|(iv, _)| iv);
-    for (i, op) in prog.insts.iter().enumerate() {
-        let (v, own) = match *op {
-            Op::Binary(BinOp::Mul, a, b) => {
-                let (x, y) = (vals[a.index()].0, vals[b.index()].0);
-                (mul_known(env, x, konst(prog, a), y, konst(prog, b)), None)
-            }
-            _ => lower_op(env, i, op, &vals, &ivs),
-        };
-        let mut d = match *op {
-            Op::Var(var) => input[var.index()].1,
-            _ => own,
-        };
-        for a in op.args() {
-            d = and(env, d, vals[a.index()].1);
-        }
-        vals.push((v, d));
+/// An interval value in the interval kind: its bounds, its decoration
+/// ("defined and continuous on the whole box"; as a rule's result, the
+/// op's own) and, for a constant of known sign, its bounds at compile time.
+#[derive(Clone, Copy)]
+struct Val {
+    iv: Iv,
+    flag: Flag,
+    k: Option<Konst>,
+}
+
+impl Val {
+    fn new(iv: Iv, flag: Flag) -> Val {
+        Val { iv, flag, k: None }
     }
-    let (iv, d) = vals[prog.output.index()];
-    (iv, flag_value(env, d))
+}
+
+/// The interval kind of the one lowering ([`super::lower`]): each rule is
+/// the function of this file of the same name, or a helper call.
+struct IntervalNum;
+
+impl NumKind for IntervalNum {
+    type In = (Iv, Flag);
+    type V = Val;
+    type Out = Val;
+
+    fn var(&self, _env: &mut Env, _var: Var, (iv, flag): (Iv, Flag)) -> Val {
+        Val::new(iv, flag)
+    }
+    fn konst(&self, env: &mut Env, i: usize, c: Const) -> Val {
+        let (iv, flag) = constant(env, i, c);
+        Val {
+            iv,
+            flag,
+            k: Konst::of(c),
+        }
+    }
+    fn neg(&self, _env: &mut Env, a: Val) -> Val {
+        Val::new(neg(a.iv), None)
+    }
+    fn abs(&self, env: &mut Env, a: Val) -> Val {
+        Val::new(abs(env, a.iv), None)
+    }
+    fn sqrt(&self, env: &mut Env, a: Val) -> Val {
+        let (iv, flag) = sqrt(env, a.iv);
+        Val::new(iv, flag)
+    }
+    fn square(&self, env: &mut Env, a: Val) -> Val {
+        Val::new(square(env, a.iv), None)
+    }
+    fn add(&self, env: &mut Env, a: Val, b: Val) -> Val {
+        Val::new(add(env, a.iv, b.iv), None)
+    }
+    fn sub(&self, env: &mut Env, a: Val, b: Val) -> Val {
+        Val::new(sub(env, a.iv, b.iv), None)
+    }
+    fn mul(&self, env: &mut Env, a: Val, b: Val) -> Val {
+        Val::new(mul_known(env, a.iv, a.k, b.iv, b.k), None)
+    }
+    fn min(&self, env: &mut Env, a: Val, b: Val) -> Val {
+        Val::new(min(env, a.iv, b.iv), None)
+    }
+    fn max(&self, env: &mut Env, a: Val, b: Val) -> Val {
+        Val::new(max(env, a.iv, b.iv), None)
+    }
+    fn powi(&self, env: &mut Env, i: usize, a: Val, n: i64) -> Val {
+        let (iv, flag) = if n == 0 {
+            (pool_iv(env, i), None)
+        } else if (1..=INLINE_POWI_MAX).contains(&n) {
+            (powi(env, a.iv, n as u64), None)
+        } else {
+            env.call_iv_powi(a.iv, n)
+        };
+        Val::new(iv, flag)
+    }
+    fn unary_call(&self, env: &mut Env, u: UnOp, a: Val) -> Val {
+        let (iv, flag) = env.call_iv_unary(u, a.iv);
+        Val::new(iv, flag)
+    }
+    fn binary_call(&self, env: &mut Env, op: BinOp, a: Val, b: Val) -> Val {
+        let (iv, flag) = env.call_iv_binary(op, a.iv, b.iv);
+        Val::new(iv, flag)
+    }
+    /// The op's own flag AND its operands' flags, so that only ops the
+    /// output depends on can clear it — as in the reference evaluator.
+    fn finish(&self, env: &mut Env, r: Val, args: impl Iterator<Item = Val>) -> Val {
+        let mut flag = r.flag;
+        for a in args {
+            flag = and(env, flag, a.flag);
+        }
+        Val { flag, ..r }
+    }
+}
+
+/// Emits the body; returns the output interval and the decoration (i8).
+pub(super) fn lower(env: &mut Env, prog: &Program, input: [(Iv, Flag); 4]) -> (Iv, Value) {
+    let out = body(env, &IntervalNum, prog, input);
+    (out.iv, flag_value(env, out.flag))
 }
 
 /// A decoration: `None` is statically true, else an i8 that is 0 or 1.
@@ -103,104 +182,84 @@ pub(super) fn normalize(env: &mut Env, (lo, hi): (Value, Value)) -> (Iv, Flag) {
     ((n, h), Some(ok))
 }
 
-/// One op: its interval and, when the op can be undefined, its flag.
-pub(super) fn lower_op(
-    env: &mut Env,
-    i: usize,
-    op: &Op,
-    vals: &[(Iv, Flag)],
-    input: &[Iv; 4],
-) -> (Iv, Option<Value>) {
-    match *op {
-        Op::Var(var) => (input[var.index()], None),
-        Op::Const(c) => {
-            let iv = (env.pool_load(i, 1), env.pool_load(i, 2));
-            let d = if c.defined && Interval::new(c.lo, c.hi).normalize().1 {
-                None
-            } else {
-                Some(env.b.ins().iconst(types::I8, 0))
-            };
-            (iv, d)
-        }
-        Op::Unary(u, a) => unary(env, u, vals[a.index()].0),
-        Op::Binary(op, a, b) => binary(env, op, vals[a.index()].0, vals[b.index()].0),
-        Op::Powi(a, n) => {
-            let a = vals[a.index()].0;
-            if n == 0 {
-                ((env.pool_load(i, 1), env.pool_load(i, 2)), None)
-            } else if (1..=INLINE_POWI_MAX).contains(&n) {
-                (powi(env, a, n as u64), None)
-            } else {
-                env.call_iv_powi(a, n)
-            }
-        }
-    }
+/// Instruction `i`'s pool enclosure `[lo, hi]` as `(−lo, hi)`.
+fn pool_iv(env: &mut Env, i: usize) -> Iv {
+    (env.pool_load(i, 1), env.pool_load(i, 2))
 }
 
-pub(super) fn unary(env: &mut Env, u: UnOp, (n, h): Iv) -> (Iv, Option<Value>) {
-    match u {
-        UnOp::Neg => ((h, n), None),
-        UnOp::Abs => {
-            let (nmig, mag) = nmig_mag(env, (n, h));
-            ((nmig, mag), None)
-        }
-        UnOp::Square => {
-            let (nmig, mag) = nmig_mag(env, (n, h));
-            let b = &mut env.b;
-            let mig = b.ins().fneg(nmig);
-            // RU(−mig·mig) = −RD(mig²).
-            let nl = b.ins().fmul(nmig, mig);
-            let hh = rounding::mul_up(b, mag, mag);
-            ((nl, hh), None)
-        }
-        UnOp::Sqrt => {
-            let b = &mut env.b;
-            let zero = b.ins().f64const(0.0);
-            let lo = b.ins().fneg(n);
-            let defined = b.ins().fcmp(FloatCC::GreaterThanOrEqual, lo, zero);
-            let l0 = b.ins().fmax(lo, zero);
-            let l = rounding::sqrt_down(b, l0);
-            let nl = b.ins().fneg(l);
-            let hh = rounding::sqrt_up(b, h);
-            // hi < 0: nowhere defined, the empty interval [+∞, −∞].
-            let empty = b.ins().fcmp(FloatCC::LessThan, h, zero);
-            let ninf = b.ins().f64const(f64::NEG_INFINITY);
-            let nl = b.ins().select(empty, ninf, nl);
-            let hh = b.ins().select(empty, ninf, hh);
-            ((nl, hh), Some(defined))
-        }
-        _ => env.call_iv_unary(u, (n, h)),
-    }
+/// The constant `c` of instruction `i`: its pool enclosure, and the flag
+/// `0` when it is not defined (or its bounds are not a real interval).
+pub(super) fn constant(env: &mut Env, i: usize, c: Const) -> (Iv, Flag) {
+    let iv = pool_iv(env, i);
+    let d = if c.defined && Interval::new(c.lo, c.hi).normalize().1 {
+        None
+    } else {
+        Some(env.b.ins().iconst(types::I8, 0))
+    };
+    (iv, d)
 }
 
-pub(super) fn binary(env: &mut Env, op: BinOp, a: Iv, bv: Iv) -> (Iv, Option<Value>) {
+/// `−[lo, hi] = [−hi, −lo]`: in `(−lo, hi)` form, a swap.
+pub(super) fn neg((n, h): Iv) -> Iv {
+    (h, n)
+}
+
+/// `|a| = (−mig, mag)`.
+pub(super) fn abs(env: &mut Env, a: Iv) -> Iv {
+    nmig_mag(env, a)
+}
+
+/// `a² = (RU(−mig·mig), RU(mag²))`.
+pub(super) fn square(env: &mut Env, a: Iv) -> Iv {
+    let (nmig, mag) = nmig_mag(env, a);
     let b = &mut env.b;
-    match op {
-        BinOp::Add => (
-            (
-                rounding::add_up(b, a.0, bv.0),
-                rounding::add_up(b, a.1, bv.1),
-            ),
-            None,
-        ),
-        BinOp::Sub => (
-            (
-                rounding::add_up(b, a.0, bv.1),
-                rounding::add_up(b, a.1, bv.0),
-            ),
-            None,
-        ),
-        BinOp::Mul => (mul(env, a, bv), None),
-        BinOp::Min => ((b.ins().fmax(a.0, bv.0), b.ins().fmin(a.1, bv.1)), None),
-        BinOp::Max => ((b.ins().fmin(a.0, bv.0), b.ins().fmax(a.1, bv.1)), None),
-        BinOp::Div
-        | BinOp::Atan2
-        | BinOp::Pow
-        | BinOp::Compare
-        | BinOp::Mod
-        | BinOp::And
-        | BinOp::Or => env.call_iv_binary(op, a, bv),
-    }
+    let mig = b.ins().fneg(nmig);
+    // RU(−mig·mig) = −RD(mig²).
+    let nl = b.ins().fmul(nmig, mig);
+    let hh = rounding::mul_up(b, mag, mag);
+    (nl, hh)
+}
+
+/// `√a` and its flag "`lo ≥ 0`".
+pub(super) fn sqrt(env: &mut Env, (n, h): Iv) -> (Iv, Flag) {
+    let b = &mut env.b;
+    let zero = b.ins().f64const(0.0);
+    let lo = b.ins().fneg(n);
+    let defined = b.ins().fcmp(FloatCC::GreaterThanOrEqual, lo, zero);
+    let l0 = b.ins().fmax(lo, zero);
+    let l = rounding::sqrt_down(b, l0);
+    let nl = b.ins().fneg(l);
+    let hh = rounding::sqrt_up(b, h);
+    // hi < 0: nowhere defined, the empty interval [+∞, −∞].
+    let empty = b.ins().fcmp(FloatCC::LessThan, h, zero);
+    let ninf = b.ins().f64const(f64::NEG_INFINITY);
+    let nl = b.ins().select(empty, ninf, nl);
+    let hh = b.ins().select(empty, ninf, hh);
+    ((nl, hh), Some(defined))
+}
+
+/// `a + c = (n_a + n_c, h_a + h_c)`.
+pub(super) fn add(env: &mut Env, a: Iv, c: Iv) -> Iv {
+    let b = &mut env.b;
+    (rounding::add_up(b, a.0, c.0), rounding::add_up(b, a.1, c.1))
+}
+
+/// `a − c = (n_a + h_c, h_a + n_c)`.
+pub(super) fn sub(env: &mut Env, a: Iv, c: Iv) -> Iv {
+    let b = &mut env.b;
+    (rounding::add_up(b, a.0, c.1), rounding::add_up(b, a.1, c.0))
+}
+
+/// `min(a, c) = (max n, min h)`, exact.
+pub(super) fn min(env: &mut Env, a: Iv, c: Iv) -> Iv {
+    let b = &mut env.b;
+    (b.ins().fmax(a.0, c.0), b.ins().fmin(a.1, c.1))
+}
+
+/// `max(a, c) = (min n, max h)`, exact.
+pub(super) fn max(env: &mut Env, a: Iv, c: Iv) -> Iv {
+    let b = &mut env.b;
+    (b.ins().fmin(a.0, c.0), b.ins().fmax(a.1, c.1))
 }
 
 /// `(−mig, mag)`: the smallest and largest `|x|` on `[lo, hi]` (`mig` held
@@ -274,17 +333,14 @@ pub(super) struct Konst {
     pub hi: f64,
 }
 
-/// [`Konst`] of value `v` of `prog`, if `v` is such a constant.
-pub(super) fn konst(prog: &Program, v: crate::ir::Value) -> Option<Konst> {
-    match prog.insts[v.index()] {
-        Op::Const(c) => {
-            let (iv, _) = Interval::new(c.lo, c.hi).normalize();
-            (iv.lo > 0.0 || iv.hi < 0.0).then_some(Konst {
-                lo: iv.lo,
-                hi: iv.hi,
-            })
-        }
-        _ => None,
+impl Konst {
+    /// The bounds of the constant `c`, if its sign is known.
+    pub(super) fn of(c: Const) -> Option<Konst> {
+        let (iv, _) = Interval::new(c.lo, c.hi).normalize();
+        (iv.lo > 0.0 || iv.hi < 0.0).then_some(Konst {
+            lo: iv.lo,
+            hi: iv.hi,
+        })
     }
 }
 

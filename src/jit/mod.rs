@@ -99,6 +99,13 @@
 //! and its per-op derivative rules. Interval kernels reach them through
 //! round-to-nearest trampolines ([`mxcsr`]). See [`point`], [`interval`],
 //! [`grad`] and [`pgrad`] for which ops are inline.
+//!
+//! # Lowering
+//!
+//! Every kernel body is one lowering ([`lower`]): the dispatch on the IR
+//! op is written once, over a number kind in generated code, and each
+//! kind ([`point`] at two lane widths, [`interval`], [`grad`], [`pgrad`])
+//! writes each op's rule once.
 
 mod entry;
 mod evaluator;
@@ -106,6 +113,7 @@ mod grad;
 pub mod helpers;
 mod interval;
 mod kernels;
+mod lower;
 mod module;
 pub mod mxcsr;
 mod pgrad;

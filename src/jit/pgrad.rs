@@ -9,8 +9,9 @@
 //! operations in the same order, so results agree bit for bit (up to NaN
 //! payloads):
 //!
-//! - **values** are lowered as in the point kernel ([`super::point`]):
-//!   same inline operations, same constant-pool loads, same helpers;
+//! - **values** are lowered by the point kernel's own rules
+//!   ([`super::point::PointNum`]): same inline operations, same
+//!   constant-pool loads, same helpers;
 //! - **inline derivative rules** (`a'` the operand's derivative, `v` the
 //!   op's value, `÷` the IR's division, NaN for a zero divisor):
 //!   `neg: -a'`; `abs: -a'` if `a < 0` else `a'` (so `a'` at 0);
@@ -33,169 +34,198 @@
 //! Without the sparsity of the derivatives being exploited (a known-zero
 //! `b'` still costs `a·0`, which is NaN for infinite `a`), the reference's
 //! results are reproduced exactly.
+//!
+//! The rules are [`PointGradNum`]'s, the point-gradient kind of the one
+//! lowering ([`super::lower`]).
 
 use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{InstBuilder, Value, types};
 
-use super::Env;
-use super::batch_loop;
 use super::helpers::{self, Helper, PG_BINARY_BASE};
-use super::point::{div_nan, powi_chain};
-use crate::ir::{BinOp, Op, Program, UnOp};
+use super::lower::{NumKind, body};
+use super::point::{PointNum, Scalar, div_nan, powi_chain};
+use super::{Env, batch_loop};
+use crate::ir::{BinOp, Const, Program, UnOp, Var};
 
 /// `(v, ∂x, ∂y, ∂z)`.
 pub(super) type Dual = [Value; 4];
 
+/// The point-gradient kind of the one lowering ([`super::lower`]): values
+/// by the point kind's rules ([`PointNum`]), derivatives by the rules of
+/// the module doc. It holds the SSA constants its rules share.
+struct PointGradNum {
+    zero: Value,
+    one: Value,
+    two: Value,
+    nan: Value,
+}
+
+/// The point kind, which computes the values.
+const P: PointNum<Scalar> = PointNum::new();
+
+impl PointGradNum {
+    /// Emits the constants.
+    fn new(env: &mut Env) -> PointGradNum {
+        PointGradNum {
+            zero: env.b.ins().f64const(0.0),
+            one: env.b.ins().f64const(1.0),
+            two: env.b.ins().f64const(2.0),
+            nan: env.b.ins().f64const(f64::NAN),
+        }
+    }
+}
+
+impl NumKind for PointGradNum {
+    type In = Value;
+    type V = Dual;
+    /// The dual and whether it needs the NaN select.
+    type Out = (Dual, bool);
+
+    fn var(&self, _env: &mut Env, var: Var, x: Value) -> (Dual, bool) {
+        let mut r = [x, self.zero, self.zero, self.zero];
+        if var.index() < 3 {
+            r[1 + var.index()] = self.one;
+        }
+        (r, true)
+    }
+
+    fn konst(&self, env: &mut Env, i: usize, c: Const) -> (Dual, bool) {
+        let v = P.konst(env, i, c);
+        let d = if c.value.is_nan() {
+            self.nan
+        } else {
+            self.zero
+        };
+        ([v, d, d, d], false)
+    }
+
+    fn neg(&self, env: &mut Env, a: Dual) -> (Dual, bool) {
+        (a.map(|x| P.neg(env, x)), false)
+    }
+
+    fn abs(&self, env: &mut Env, a: Dual) -> (Dual, bool) {
+        let v = P.abs(env, a[0]);
+        let zero = env.b.ins().f64const(0.0);
+        let neg = env.b.ins().fcmp(FloatCC::LessThan, a[0], zero);
+        let d = [1, 2, 3].map(|k| {
+            let m = env.b.ins().fneg(a[k]);
+            env.b.ins().select(neg, m, a[k])
+        });
+        ([v, d[0], d[1], d[2]], false)
+    }
+
+    fn sqrt(&self, env: &mut Env, a: Dual) -> (Dual, bool) {
+        let v = P.sqrt(env, a[0]);
+        let two_v = env.b.ins().fmul(self.two, v);
+        let d = [1, 2, 3].map(|k| div_nan(env, a[k], two_v));
+        ([v, d[0], d[1], d[2]], false)
+    }
+
+    fn square(&self, env: &mut Env, a: Dual) -> (Dual, bool) {
+        let v = P.square(env, a[0]);
+        let two_a = env.b.ins().fmul(self.two, a[0]);
+        let d = [1, 2, 3].map(|k| env.b.ins().fmul(two_a, a[k]));
+        ([v, d[0], d[1], d[2]], false)
+    }
+
+    fn add(&self, env: &mut Env, a: Dual, b: Dual) -> (Dual, bool) {
+        ([0, 1, 2, 3].map(|k| P.add(env, a[k], b[k])), true)
+    }
+
+    fn sub(&self, env: &mut Env, a: Dual, b: Dual) -> (Dual, bool) {
+        ([0, 1, 2, 3].map(|k| P.sub(env, a[k], b[k])), true)
+    }
+
+    fn mul(&self, env: &mut Env, a: Dual, b: Dual) -> (Dual, bool) {
+        let v = P.mul(env, a[0], b[0]);
+        let d = [1, 2, 3].map(|k| {
+            let p = env.b.ins().fmul(a[k], b[0]);
+            let q = env.b.ins().fmul(a[0], b[k]);
+            env.b.ins().fadd(p, q)
+        });
+        ([v, d[0], d[1], d[2]], true)
+    }
+
+    fn div(&self, env: &mut Env, a: Dual, b: Dual) -> (Dual, bool) {
+        let v = P.div(env, a[0], b[0]);
+        let d = [1, 2, 3].map(|k| {
+            let p = env.b.ins().fmul(v, b[k]);
+            let q = env.b.ins().fsub(a[k], p);
+            div_nan(env, q, b[0])
+        });
+        ([v, d[0], d[1], d[2]], true)
+    }
+
+    fn min(&self, env: &mut Env, a: Dual, b: Dual) -> (Dual, bool) {
+        let v = P.min(env, a[0], b[0]);
+        (select(env, v, FloatCC::LessThan, a, b), true)
+    }
+
+    fn max(&self, env: &mut Env, a: Dual, b: Dual) -> (Dual, bool) {
+        let v = P.max(env, a[0], b[0]);
+        (select(env, v, FloatCC::GreaterThan, a, b), true)
+    }
+
+    fn powi(&self, env: &mut Env, i: usize, a: Dual, n: i64) -> (Dual, bool) {
+        let v = P.powi(env, i, a[0], n);
+        if n == 0 {
+            return ([v, self.zero, self.zero, self.zero], false);
+        }
+        let Some(m) = n.checked_sub(1) else {
+            return ([v, self.nan, self.nan, self.nan], true);
+        };
+        let p = match m {
+            0 => self.one,
+            m if m > 0 => powi_chain(env, a[0], m as u64),
+            m => {
+                let q = powi_chain(env, a[0], m.unsigned_abs());
+                div_nan(env, self.one, q)
+            }
+        };
+        let nf = env.b.ins().f64const(n as f64);
+        let f = env.b.ins().fmul(nf, p);
+        let d = [1, 2, 3].map(|k| env.b.ins().fmul(f, a[k]));
+        ([v, d[0], d[1], d[2]], true)
+    }
+
+    fn unary_call(&self, env: &mut Env, u: UnOp, a: Dual) -> (Dual, bool) {
+        (call_pg(env, helpers::unop_code(u), a, None), true)
+    }
+
+    fn binary_call(&self, env: &mut Env, op: BinOp, a: Dual, b: Dual) -> (Dual, bool) {
+        let code = helpers::binop_code(op) + PG_BINARY_BASE;
+        (call_pg(env, code, a, Some(b)), true)
+    }
+
+    /// Where the value is NaN, the derivatives are NaN (when the rule
+    /// asks for the select).
+    fn finish(
+        &self,
+        env: &mut Env,
+        (r, poison): (Dual, bool),
+        _args: impl Iterator<Item = Dual>,
+    ) -> Dual {
+        if !poison {
+            return r;
+        }
+        let isnan = env.b.ins().fcmp(FloatCC::Unordered, r[0], r[0]);
+        let d = [1, 2, 3].map(|k| env.b.ins().select(isnan, self.nan, r[k]));
+        [r[0], d[0], d[1], d[2]]
+    }
+}
+
+/// The derivatives of `min`/`max` of value `v`: `b'` where `b cc a`
+/// (`<` for `min`, `>` for `max`), else `a'` (the first operand on ties).
+fn select(env: &mut Env, v: Value, cc: FloatCC, a: Dual, b: Dual) -> Dual {
+    let second = env.b.ins().fcmp(cc, b[0], a[0]);
+    let d = [1, 2, 3].map(|k| env.b.ins().select(second, b[k], a[k]));
+    [v, d[0], d[1], d[2]]
+}
+
 /// Emits the body; returns the output's dual.
 pub(super) fn lower(env: &mut Env, prog: &Program, input: [Value; 4]) -> Dual {
-    let zero = env.b.ins().f64const(0.0);
-    let one = env.b.ins().f64const(1.0);
-    let two = env.b.ins().f64const(2.0);
-    let nan = env.b.ins().f64const(f64::NAN);
-    let mut vals: Vec<Dual> = Vec::with_capacity(prog.len());
-    for (i, op) in prog.insts.iter().enumerate() {
-        let (r, poison) = match *op {
-            Op::Var(var) => {
-                let mut r = [input[var.index()], zero, zero, zero];
-                if var.index() < 3 {
-                    r[1 + var.index()] = one;
-                }
-                (r, true)
-            }
-            Op::Const(c) => {
-                let v = env.pool_load(i, 0);
-                let d = if c.value.is_nan() { nan } else { zero };
-                ([v, d, d, d], false)
-            }
-            Op::Unary(u, a) => {
-                let a = vals[a.index()];
-                unary(env, u, a, two)
-            }
-            Op::Binary(op, a, b) => {
-                let (a, b) = (vals[a.index()], vals[b.index()]);
-                (binary(env, op, a, b), true)
-            }
-            Op::Powi(a, n) => {
-                let a = vals[a.index()];
-                let v = if n == 0 {
-                    env.pool_load(i, 0)
-                } else {
-                    let p = powi_chain(env, a[0], n.unsigned_abs());
-                    if n < 0 {
-                        let one = env.pool_load(i, 0);
-                        div_nan(env, one, p)
-                    } else {
-                        p
-                    }
-                };
-                if n == 0 {
-                    ([v, zero, zero, zero], false)
-                } else if let Some(m) = n.checked_sub(1) {
-                    let p = match m {
-                        0 => one,
-                        m if m > 0 => powi_chain(env, a[0], m as u64),
-                        m => {
-                            let q = powi_chain(env, a[0], m.unsigned_abs());
-                            div_nan(env, one, q)
-                        }
-                    };
-                    let nf = env.b.ins().f64const(n as f64);
-                    let f = env.b.ins().fmul(nf, p);
-                    let d = [1, 2, 3].map(|k| env.b.ins().fmul(f, a[k]));
-                    ([v, d[0], d[1], d[2]], true)
-                } else {
-                    ([v, nan, nan, nan], true)
-                }
-            }
-        };
-        let r = if poison {
-            let isnan = env.b.ins().fcmp(FloatCC::Unordered, r[0], r[0]);
-            let d = [1, 2, 3].map(|k| env.b.ins().select(isnan, nan, r[k]));
-            [r[0], d[0], d[1], d[2]]
-        } else {
-            r
-        };
-        vals.push(r);
-    }
-    vals[prog.output.index()]
-}
-
-/// A unary op; returns the dual and whether it needs the NaN select.
-fn unary(env: &mut Env, u: UnOp, a: Dual, two: Value) -> (Dual, bool) {
-    match u {
-        UnOp::Neg => (a.map(|x| env.b.ins().fneg(x)), false),
-        UnOp::Abs => {
-            let v = env.b.ins().fabs(a[0]);
-            let zero = env.b.ins().f64const(0.0);
-            let neg = env.b.ins().fcmp(FloatCC::LessThan, a[0], zero);
-            let d = [1, 2, 3].map(|k| {
-                let m = env.b.ins().fneg(a[k]);
-                env.b.ins().select(neg, m, a[k])
-            });
-            ([v, d[0], d[1], d[2]], false)
-        }
-        UnOp::Sqrt => {
-            let v = env.b.ins().sqrt(a[0]);
-            let two_v = env.b.ins().fmul(two, v);
-            let d = [1, 2, 3].map(|k| div_nan(env, a[k], two_v));
-            ([v, d[0], d[1], d[2]], false)
-        }
-        UnOp::Square => {
-            let v = env.b.ins().fmul(a[0], a[0]);
-            let two_a = env.b.ins().fmul(two, a[0]);
-            let d = [1, 2, 3].map(|k| env.b.ins().fmul(two_a, a[k]));
-            ([v, d[0], d[1], d[2]], false)
-        }
-        _ => (call_pg(env, helpers::unop_code(u), a, None), true),
-    }
-}
-
-/// A binary op (always followed by the NaN select).
-fn binary(env: &mut Env, op: BinOp, a: Dual, b: Dual) -> Dual {
-    let mut r = [a[0]; 4];
-    match op {
-        BinOp::Add | BinOp::Sub => {
-            for k in 0..4 {
-                r[k] = if op == BinOp::Add {
-                    env.b.ins().fadd(a[k], b[k])
-                } else {
-                    env.b.ins().fsub(a[k], b[k])
-                };
-            }
-        }
-        BinOp::Mul => {
-            r[0] = env.b.ins().fmul(a[0], b[0]);
-            for k in 1..4 {
-                let p = env.b.ins().fmul(a[k], b[0]);
-                let q = env.b.ins().fmul(a[0], b[k]);
-                r[k] = env.b.ins().fadd(p, q);
-            }
-        }
-        BinOp::Div => {
-            r[0] = div_nan(env, a[0], b[0]);
-            for k in 1..4 {
-                let p = env.b.ins().fmul(r[0], b[k]);
-                let q = env.b.ins().fsub(a[k], p);
-                r[k] = div_nan(env, q, b[0]);
-            }
-        }
-        BinOp::Min | BinOp::Max => {
-            let (v, cc) = if op == BinOp::Min {
-                (env.b.ins().fmin(a[0], b[0]), FloatCC::LessThan)
-            } else {
-                (env.b.ins().fmax(a[0], b[0]), FloatCC::GreaterThan)
-            };
-            r[0] = v;
-            let second = env.b.ins().fcmp(cc, b[0], a[0]);
-            for k in 1..4 {
-                r[k] = env.b.ins().select(second, b[k], a[k]);
-            }
-        }
-        BinOp::Atan2 | BinOp::Pow | BinOp::Compare | BinOp::Mod | BinOp::And | BinOp::Or => {
-            r = call_pg(env, helpers::binop_code(op) + PG_BINARY_BASE, a, Some(b));
-        }
-    }
-    r
+    let k = PointGradNum::new(env);
+    body(env, &k, prog, input)
 }
 
 /// Calls `isoc_pg_op(code, a, b, out)` through a 96-byte stack slot (`a` at

@@ -3,29 +3,35 @@
 //! `neg abs sqrt square add sub mul div min max powi` are inline IEEE
 //! operations (with the IR's NaN rules: `a / ±0` is NaN, `min`/`max`
 //! propagate NaN); every other op (`exp log sin … atan2 pow` and the `.vm`
-//! ops) calls the reference evaluator's per-op functions through [`super::helpers`], so the
-//! JIT's point values are bit for bit the interpreter's.
+//! ops) calls the reference evaluator's per-op functions through
+//! [`super::helpers`], so the JIT's point values are bit for bit the
+//! interpreter's.
 //!
-//! The op table is written once ([`lower`]) for both the scalar body and
-//! the `F64X2` body of the batch loop ([`super::simd`]), generic over
-//! [`Width`].
+//! The rules are [`PointNum`]'s, the point kind of the one lowering
+//! ([`super::lower`]), written once for both the scalar body and the
+//! `F64X2` body of the batch loop ([`super::simd`]), generic over the lane
+//! width [`Width`]. The point-gradient kind ([`super::pgrad`]) computes its
+//! values with the same rules.
 //!
 //! `powi a n` is computed by right-to-left binary exponentiation: the
 //! running product starts at the lowest set bit's power of `a` and each
 //! further set bit multiplies it by the current square, `a^-n = 1 / a^n`,
 //! `a^0 = 1`.
 
+use std::marker::PhantomData;
+
 use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{InstBuilder, Value};
 
 use super::Env;
-use crate::ir::{BinOp, Op, Program, UnOp};
+use super::lower::{NumKind, body};
+use crate::ir::{BinOp, Const, Program, UnOp, Var};
 
 /// What differs between the scalar body and the `F64X2` body
 /// ([`super::simd`]): how a pool constant enters, how `a / ±0 = NaN` is
 /// selected, and how a helper op is called. Every inline op is the same
 /// Cranelift instruction at either width (the instructions are
-/// polymorphic over the lane count), so the op table below is written
+/// polymorphic over the lane count), so [`PointNum`]'s rules are written
 /// once for both.
 pub(super) trait Width {
     /// Entry 0 (the point value) of instruction `i`'s pool record.
@@ -56,53 +62,82 @@ impl Width for Scalar {
     }
 }
 
+/// The f64 point kind at lane width `W` (see [`super::lower`]).
+pub(super) struct PointNum<W>(PhantomData<W>);
+
+impl<W> PointNum<W> {
+    pub(super) const fn new() -> Self {
+        PointNum(PhantomData)
+    }
+}
+
+impl<W: Width> NumKind for PointNum<W> {
+    type In = Value;
+    type V = Value;
+    type Out = Value;
+
+    fn var(&self, _env: &mut Env, _var: Var, x: Value) -> Value {
+        x
+    }
+    fn konst(&self, env: &mut Env, i: usize, _c: Const) -> Value {
+        W::constant(env, i)
+    }
+    fn neg(&self, env: &mut Env, a: Value) -> Value {
+        env.b.ins().fneg(a)
+    }
+    fn abs(&self, env: &mut Env, a: Value) -> Value {
+        env.b.ins().fabs(a)
+    }
+    fn sqrt(&self, env: &mut Env, a: Value) -> Value {
+        env.b.ins().sqrt(a)
+    }
+    fn square(&self, env: &mut Env, a: Value) -> Value {
+        env.b.ins().fmul(a, a)
+    }
+    fn add(&self, env: &mut Env, a: Value, b: Value) -> Value {
+        env.b.ins().fadd(a, b)
+    }
+    fn sub(&self, env: &mut Env, a: Value, b: Value) -> Value {
+        env.b.ins().fsub(a, b)
+    }
+    fn mul(&self, env: &mut Env, a: Value, b: Value) -> Value {
+        env.b.ins().fmul(a, b)
+    }
+    fn div(&self, env: &mut Env, a: Value, b: Value) -> Value {
+        W::div_nan(env, a, b)
+    }
+    fn min(&self, env: &mut Env, a: Value, b: Value) -> Value {
+        env.b.ins().fmin(a, b)
+    }
+    fn max(&self, env: &mut Env, a: Value, b: Value) -> Value {
+        env.b.ins().fmax(a, b)
+    }
+    fn powi(&self, env: &mut Env, i: usize, a: Value, n: i64) -> Value {
+        if n == 0 {
+            return W::constant(env, i);
+        }
+        let p = powi_chain(env, a, n.unsigned_abs());
+        if n < 0 {
+            let one = W::constant(env, i);
+            W::div_nan(env, one, p)
+        } else {
+            p
+        }
+    }
+    fn unary_call(&self, env: &mut Env, u: UnOp, a: Value) -> Value {
+        W::unary_helper(env, u, a)
+    }
+    fn binary_call(&self, env: &mut Env, op: BinOp, a: Value, b: Value) -> Value {
+        W::binary_helper(env, op, a, b)
+    }
+    fn finish(&self, _env: &mut Env, r: Value, _args: impl Iterator<Item = Value>) -> Value {
+        r
+    }
+}
+
 /// Emits the body at width `W`; returns the output value.
 pub(super) fn lower<W: Width>(env: &mut Env, prog: &Program, input: [Value; 4]) -> Value {
-    let mut vals: Vec<Value> = Vec::with_capacity(prog.len());
-    for (i, op) in prog.insts.iter().enumerate() {
-        let v = match *op {
-            Op::Var(var) => input[var.index()],
-            Op::Const(_) => W::constant(env, i),
-            Op::Unary(u, a) => {
-                let a = vals[a.index()];
-                match u {
-                    UnOp::Neg => env.b.ins().fneg(a),
-                    UnOp::Abs => env.b.ins().fabs(a),
-                    UnOp::Sqrt => env.b.ins().sqrt(a),
-                    UnOp::Square => env.b.ins().fmul(a, a),
-                    _ => W::unary_helper(env, u, a),
-                }
-            }
-            Op::Binary(op, a, b) => {
-                let (a, b) = (vals[a.index()], vals[b.index()]);
-                match op {
-                    BinOp::Add => env.b.ins().fadd(a, b),
-                    BinOp::Sub => env.b.ins().fsub(a, b),
-                    BinOp::Mul => env.b.ins().fmul(a, b),
-                    BinOp::Div => W::div_nan(env, a, b),
-                    BinOp::Min => env.b.ins().fmin(a, b),
-                    BinOp::Max => env.b.ins().fmax(a, b),
-                    _ => W::binary_helper(env, op, a, b),
-                }
-            }
-            Op::Powi(a, n) => {
-                let a = vals[a.index()];
-                if n == 0 {
-                    W::constant(env, i)
-                } else {
-                    let p = powi_chain(env, a, n.unsigned_abs());
-                    if n < 0 {
-                        let one = W::constant(env, i);
-                        W::div_nan(env, one, p)
-                    } else {
-                        p
-                    }
-                }
-            }
-        };
-        vals.push(v);
-    }
-    vals[prog.output.index()]
+    body(env, &PointNum::<W>::new(), prog, input)
 }
 
 /// `a / b`, NaN when `b` is ±0 (the IR's point semantics).
