@@ -12,6 +12,7 @@
 //! stalls behind the previous call's restoring `ldmxcsr`).
 
 use cranelift_codegen::ir as clif;
+use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{AbiParam, InstBuilder, Signature, StackSlotData, StackSlotKind};
 use cranelift_codegen::ir::{Value, types};
 
@@ -124,16 +125,60 @@ fn emit_box_record(
 
 /// The four input intervals of the record at `ia`, normalised; only the
 /// variables the program reads are loaded.
+///
+/// Normalising a NaN bound (the entire line, undefined) takes two selects
+/// a bound; so the common case, every bound a number, branches past them:
+/// both paths join in a block whose parameters are the normalised bounds
+/// and flags ([`interval::normalize_ordered`] on the fast path,
+/// [`interval::normalize`] on the other), and the body is emitted once.
 fn box_input(env: &mut Env, used: [bool; 4], ia: Value) -> [(interval::Iv, interval::Flag); 4] {
-    [0, 1, 2, 3].map(|k| {
-        if used[k as usize] {
-            let lo_hi = env.read_lo_hi(ia, 16 * k);
-            interval::normalize(env, lo_hi)
-        } else {
-            let zero = env.b.ins().f64const(0.0);
-            ((zero, zero), None)
-        }
-    })
+    let raw: Vec<(usize, (Value, Value))> = (0..4)
+        .filter(|&k| used[k])
+        .map(|k| (k, env.read_lo_hi(ia, 16 * k as i32)))
+        .collect();
+    let zero = |env: &mut Env| {
+        let z = env.b.ins().f64const(0.0);
+        ((z, z), None)
+    };
+    if raw.is_empty() {
+        return [(); 4].map(|_| zero(env));
+    }
+    let join = env.b.create_block();
+    let slow = env.b.create_block();
+    let mut all = None;
+    let mut fast_args: Vec<clif::BlockArg> = Vec::new();
+    for &(_, (lo, hi)) in &raw {
+        let ok = env.b.ins().fcmp(FloatCC::Ordered, lo, hi);
+        all = Some(match all {
+            None => ok,
+            Some(a) => env.b.ins().band(a, ok),
+        });
+        let (n, h) = interval::normalize_ordered(env, (lo, hi));
+        fast_args.extend([n, h].map(clif::BlockArg::from));
+        env.b.append_block_param(join, types::F64);
+        env.b.append_block_param(join, types::F64);
+        env.b.append_block_param(join, types::I8);
+        let one = env.b.ins().iconst(types::I8, 1);
+        fast_args.push(one.into());
+    }
+    let all = all.expect("some variable is read");
+    env.b.ins().brif(all, join, &fast_args, slow, &[]);
+    env.b.switch_to_block(slow);
+    let mut slow_args: Vec<clif::BlockArg> = Vec::new();
+    for &(_, lo_hi) in &raw {
+        let ((n, h), ok) = interval::normalize(env, lo_hi);
+        let ok = interval::flag_value(env, ok);
+        slow_args.extend([n, h, ok].map(clif::BlockArg::from));
+    }
+    env.b.ins().jump(join, &slow_args);
+    env.b.switch_to_block(join);
+    let params = env.b.block_params(join).to_vec();
+    let mut out = [(); 4].map(|_| None);
+    for (j, &(k, _)) in raw.iter().enumerate() {
+        let p = &params[3 * j..3 * j + 3];
+        out[k] = Some(((p[0], p[1]), Some(p[2])));
+    }
+    out.map(|v| v.unwrap_or_else(|| zero(env)))
 }
 
 /// A stack slot for the caller's MXCSR.

@@ -182,6 +182,16 @@ pub(super) fn normalize(env: &mut Env, (lo, hi): (Value, Value)) -> (Iv, Flag) {
     ((n, h), Some(ok))
 }
 
+/// [`normalize`] of an interval whose bounds are both numbers (not NaN):
+/// `(−lo, hi)` with `lo = +∞` made `MAX` and `hi = −∞` made `−MAX`; its
+/// flag is true.
+pub(super) fn normalize_ordered(env: &mut Env, (lo, hi): (Value, Value)) -> Iv {
+    let b = &mut env.b;
+    let nmax = b.ins().f64const(-f64::MAX);
+    let nlo = b.ins().fneg(lo);
+    (pmax(b, nlo, nmax), pmax(b, hi, nmax))
+}
+
 /// Instruction `i`'s pool enclosure `[lo, hi]` as `(−lo, hi)`.
 fn pool_iv(env: &mut Env, i: usize) -> Iv {
     (env.pool_load(i, 1), env.pool_load(i, 2))

@@ -119,6 +119,7 @@ pub mod mxcsr;
 mod pgrad;
 mod point;
 pub mod rounding;
+mod sign_mask;
 mod simd;
 
 use cranelift_codegen::ir as clif;

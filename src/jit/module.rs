@@ -148,6 +148,7 @@ fn define_entries(
             env.b.seal_all_blocks();
             env.b.finalize(module.target_config());
         }
+        super::sign_mask::share(&mut ctx.func, ptr);
         ctx.set_disasm(opts.keep_text);
         module
             .define_function(id, &mut ctx)
