@@ -7,9 +7,10 @@
 //! ([`super::batch_loop`]). The interval and gradient batch entry points
 //! call `isoc_rm_enter` first and `isoc_rm_leave` before returning
 //! ([`super::mxcsr`]): a batch switches the mode once, not once per box.
-//! Their single entry points call `isoc_rm_enter_probe` instead, which
-//! does not read the MXCSR of a caller that rounds to nearest (reading it
-//! stalls behind the previous call's restoring `ldmxcsr`).
+//! Their single entry points switch nothing: the safe single calls
+//! bracket them with inline assembly ([`super::mxcsr::call_interval_up`]),
+//! which does not read the MXCSR of a caller that rounds to nearest
+//! (reading it stalls behind the previous call's restoring `ldmxcsr`).
 
 use cranelift_codegen::ir as clif;
 use cranelift_codegen::ir::condcodes::FloatCC;
@@ -47,9 +48,10 @@ pub(super) fn entry_sig(
         // The point-gradient kind has no single entry point.
         (Kind::Interval, false) => {
             s.returns.push(AbiParam::new(F64));
-            (vec![ptr, ptr], Some(F64))
+            s.returns.push(AbiParam::new(F64));
+            (vec![ptr, ptr], Some(types::I8))
         }
-        (Kind::Grad, false) => (vec![ptr, ptr], Some(types::I8)),
+        (Kind::Grad, false) => (vec![ptr, ptr, ptr], Some(types::I8)),
         (_, _) => (vec![ptr, ptr, ptr, I64], None),
     };
     s.params.extend(params.into_iter().map(AbiParam::new));
@@ -187,44 +189,20 @@ fn mxcsr_slot(env: &mut Env) -> clif::StackSlot {
         .create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 8, 3))
 }
 
-/// The single-box interval or gradient entry point, bracketed by the
-/// probing mode switch ([`super::mxcsr::isoc_rm_enter_probe`]).
-///
-/// Everything the kernel returns is *stored* before the restoring call:
-/// Cranelift places a pure instruction at its first use, so a bound only
-/// returned (or a flag computed from it) would otherwise be computed after
-/// `isoc_rm_leave`, in the caller's rounding mode. The stores pin the
-/// whole body before the call (a call orders memory); the interval bounds
-/// are then reloaded from the slot and returned in registers, the
-/// gradient's flag likewise.
+/// The single-box interval or gradient entry point. It does not switch
+/// the rounding mode: its caller does, around the call
+/// ([`super::mxcsr::call_interval_up`]), so the body runs in round-up mode
+/// from entry to return and its results travel back in registers — the
+/// bounds and the flag for the interval kind, the flag for the gradient,
+/// whose eight bounds are stored at `out`.
 fn emit_box_single(env: &mut Env, prog: &ir::Program, kind: Kind, params: &[Value]) {
-    // [caller's MXCSR (4 bytes), pad, lo, hi, flag]
-    let slot =
-        env.b
-            .create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 32, 3));
-    let f = Env::flags();
-    let save = env.b.ins().stack_addr(env.ptr, slot, 0);
-    env.call_void(Helper::RmEnterProbe, &[save]);
     let input = box_input(env, used_vars(prog), params[0]);
-    let keep = env.b.ins().stack_addr(env.ptr, slot, 8);
-    let d = if kind == Kind::Interval {
-        let (iv, d) = interval::lower(env, prog, input);
-        env.store_iv(keep, 0, iv);
-        d
-    } else {
-        store_box_result(env, prog, kind, input, params[1])
-    };
-    env.b.ins().store(f, d, keep, 16);
-    let save = env.b.ins().stack_addr(env.ptr, slot, 0);
-    env.call_void(Helper::RmLeave, &[save]);
-    let keep = env.b.ins().stack_addr(env.ptr, slot, 8);
-    let d = env.b.ins().load(types::I8, f, keep, 16);
     if kind == Kind::Interval {
-        env.b.ins().store(f, d, params[1], 0);
-        let lo = env.b.ins().load(types::F64, f, keep, 0);
-        let hi = env.b.ins().load(types::F64, f, keep, 8);
-        env.b.ins().return_(&[lo, hi]);
+        let ((n, h), d) = interval::lower(env, prog, input);
+        let lo = env.b.ins().fneg(n);
+        env.b.ins().return_(&[lo, h, d]);
     } else {
+        let d = store_box_result(env, prog, kind, input, params[1]);
         env.b.ins().return_(&[d]);
     }
 }

@@ -60,12 +60,10 @@ pub(crate) enum Helper {
     RmEnter,
     /// `fn(save: *const u32)`: [`super::mxcsr::isoc_rm_leave`].
     RmLeave,
-    /// `fn(save: *mut u32)`: [`super::mxcsr::isoc_rm_enter_probe`].
-    RmEnterProbe,
 }
 
 impl Helper {
-    pub const ALL: [Helper; 11] = [
+    pub const ALL: [Helper; 10] = [
         Helper::PtUnary,
         Helper::PtBinary,
         Helper::IvUnary,
@@ -76,7 +74,6 @@ impl Helper {
         Helper::PgOp,
         Helper::RmEnter,
         Helper::RmLeave,
-        Helper::RmEnterProbe,
     ];
 
     /// The symbol the kernels import.
@@ -92,7 +89,6 @@ impl Helper {
             Helper::PgOp => "isoc_pg_op",
             Helper::RmEnter => "isoc_rm_enter",
             Helper::RmLeave => "isoc_rm_leave",
-            Helper::RmEnterProbe => "isoc_rm_enter_probe",
         }
     }
 
@@ -109,10 +105,6 @@ impl Helper {
             Helper::PgOp => pg_op as *const u8,
             Helper::RmEnter => mxcsr::isoc_rm_enter as *const u8,
             Helper::RmLeave => mxcsr::isoc_rm_leave as *const u8,
-            Helper::RmEnterProbe if std::arch::is_x86_feature_detected!("sse4.1") => {
-                mxcsr::isoc_rm_enter_probe as *const u8
-            }
-            Helper::RmEnterProbe => mxcsr::isoc_rm_enter as *const u8,
         }
     }
 
@@ -128,7 +120,7 @@ impl Helper {
             Helper::GdUnary => (vec![I32, ptr, ptr], Some(I8)),
             Helper::GdBinary => (vec![I32, ptr, ptr, I64, ptr], Some(I8)),
             Helper::PgOp => (vec![I32, ptr, ptr, ptr], None),
-            Helper::RmEnter | Helper::RmLeave | Helper::RmEnterProbe => (vec![ptr], None),
+            Helper::RmEnter | Helper::RmLeave => (vec![ptr], None),
         }
     }
 

@@ -127,8 +127,10 @@ impl Kernels {
                 return Err(e);
             }
         }
-        k.interval_one_k()?;
-        k.grad_one_k()?;
+        if std::arch::is_x86_feature_detected!("sse4.1") {
+            k.interval_one_k()?;
+            k.grad_one_k()?;
+        }
         Ok(k)
     }
 
@@ -249,8 +251,15 @@ impl Kernels {
         })
     }
 
-    /// The single-box entry point of the interval or gradient kind.
+    /// The single-box entry point of the interval or gradient kind (an
+    /// error on a processor without SSE4.1, which its mode bracket needs:
+    /// single calls then make batches of one).
     fn compile_one<F: Copy>(&self, kind: Kind) -> Result<One<F>, JitError> {
+        if !std::arch::is_x86_feature_detected!("sse4.1") {
+            return Err(JitError::Target(
+                "no SSE4.1 for the single-box bracket".into(),
+            ));
+        }
         let (module, p, info) = self.build(kind, &[false])?;
         // SAFETY: `p[0]` is the finalized single-box entry point of `kind`,
         // declared with `entry_sig(kind, false)`: `IntervalFn` for the
@@ -413,17 +422,33 @@ impl Kernels {
         match self.interval_one_k() {
             Ok(k) => {
                 let b = flatten(input);
-                let mut d = 0u8;
-                // SAFETY: `b` is one input record (8 f64) and `d` one
-                // byte; the kernel reads and writes only those and the
-                // pool `self` keeps alive.
-                let r = unsafe { (k.f)(b.as_ptr(), &mut d) };
+                // SAFETY: `k.f` is the single-box interval kernel (SSE4.1
+                // checked when it was compiled), `b` one input record (8
+                // f64); the kernel reads only that and the pool `self`
+                // keeps alive.
+                let (lo, hi, d) = unsafe {
+                    super::mxcsr::call_interval_up(k.f as *const u8, b.as_ptr(), self.pool.as_ptr())
+                };
                 DecInterval {
-                    iv: Interval { lo: r.lo, hi: r.hi },
+                    iv: Interval { lo, hi },
                     defined: d != 0,
                 }
             }
-            Err(_) => crate::eval::interval::eval(&self.program, input),
+            // A batch of one (which falls back to the interpreter if the
+            // batch kernel is not compiled either).
+            Err(_) => {
+                let mut out = [0.0; 2];
+                let mut d = [false];
+                self.interval_batch(&flatten(input), &mut out, &mut d)
+                    .expect("one record");
+                DecInterval {
+                    iv: Interval {
+                        lo: out[0],
+                        hi: out[1],
+                    },
+                    defined: d[0],
+                }
+            }
         }
     }
 
@@ -450,12 +475,25 @@ impl Kernels {
             Ok(k) => {
                 let b = flatten(input);
                 let mut out = [0.0; 8];
-                // SAFETY: one input record (8 f64) and one output record
-                // (8 f64), as for `interval`.
-                let d = unsafe { (k.f)(b.as_ptr(), out.as_mut_ptr()) };
+                // SAFETY: the single-box gradient kernel, one input record
+                // (8 f64) and one output record (8 f64), as for `interval`.
+                let d = unsafe {
+                    super::mxcsr::call_grad_up(
+                        k.f as *const u8,
+                        b.as_ptr(),
+                        out.as_mut_ptr(),
+                        self.pool.as_ptr(),
+                    )
+                };
                 grad_record(&out, d != 0)
             }
-            Err(_) => crate::eval::grad::eval(&self.program, input),
+            Err(_) => {
+                let mut out = [0.0; 8];
+                let mut d = [false];
+                self.grad_batch(&flatten(input), &mut out, &mut d)
+                    .expect("one record");
+                grad_record(&out, d[0])
+            }
         }
     }
 

@@ -31,10 +31,10 @@
 //! Kernels never allocate, never unwind, and touch no memory but their
 //! arguments, their stack and the constant pool owned by [`Kernels`]. The
 //! interval batch kernels give the caller back its MXCSR (rounding mode
-//! and exception flags) unchanged; the single-box ones give back the
+//! and exception flags) unchanged; the single-box calls give back the
 //! caller's rounding direction — bit for bit its MXCSR unless it rounds to
 //! nearest, when it gets the default one (see
-//! [`mxcsr::isoc_rm_enter_probe`]).
+//! [`mxcsr::call_interval_up`]).
 //!
 //! # Size and compile time
 //!
@@ -58,8 +58,12 @@
 //! | point batch | `fn(xs, ys, zs: *const f64, t: f64, out: *mut f64, n: u64)` | `xs ys zs out`: `n` f64 each (structure of arrays, 8-byte alignment suffices); `out[i] = f(xs[i], ys[i], zs[i], t)` |
 //! | interval batch | `fn(input: *const f64, out: *mut f64, defined: *mut u8, n: u64)` | `input`: `n` records of 8 f64 `[x.lo, x.hi, y.lo, y.hi, z.lo, z.hi, t.lo, t.hi]`; `out`: `n` records `[lo, hi]`; `defined`: `n` bytes, 1 when defined and continuous on the box, else 0 |
 //! | gradient batch | `fn(input: *const f64, out: *mut f64, defined: *mut u8, n: u64)` | `input`: `n` records of 8 as above; `out`: `n` records `[F.lo, F.hi, Fx.lo, Fx.hi, Fy.lo, Fy.hi, Fz.lo, Fz.hi]`; `defined`: `n` bytes |
-//! | interval (one box) | `fn(input: *const f64, defined: *mut u8) -> [lo, hi]` | one input record as in the batch form; the bounds are returned in `xmm0`, `xmm1` (a `#[repr(C)]` pair of `f64`), the flag written to `defined` |
-//! | gradient (one box) | `fn(input: *const f64, out: *mut f64) -> u8` | one record of each as in the batch form; returns the `defined` byte |
+//! | interval (one box) | `fn(input, pool: *const f64) -> (lo, hi: f64, defined: u8)` | one input record as in the batch form; `pool` the constant pool; `lo` returned in `xmm0`, `hi` in `xmm1`, the flag in `al` |
+//! | gradient (one box) | `fn(input: *const f64, out: *mut f64, pool: *const f64) -> u8` | one record of each as in the batch form; returns the `defined` byte |
+//!
+//! The single-box kernels run in round-up mode from entry to return and
+//! switch nothing: the safe calls bracket them ([`mxcsr::call_interval_up`],
+//! [`mxcsr::call_grad_up`]).
 //! | point gradient batch | `fn(xs, ys, zs: *const f64, t: f64, out: *mut f64, n: u64)` | `xs ys zs`: `n` f64 each; `out`: `n` records `[f, fx, fy, fz]` |
 //!
 //! The single-box entry points live in a module of their own, compiled on
@@ -143,20 +147,14 @@ pub(crate) type PointBatchFn =
 /// Batch interval or gradient kernel.
 pub(crate) type BoxBatchFn = unsafe extern "C" fn(*const f64, *mut f64, *mut u8, u64);
 /// Single-box gradient kernel: one input record, one output record,
-/// returns the decoration (0 or 1).
-pub(crate) type BoxFn = unsafe extern "C" fn(*const f64, *mut f64) -> u8;
-/// Single-box interval kernel: one input record; writes the decoration (0
-/// or 1) and returns the bounds in registers.
-pub(crate) type IntervalFn = unsafe extern "C" fn(*const f64, *mut u8) -> LoHi;
-
-/// `[lo, hi]` as the single-box interval kernel returns it (in `xmm0`,
-/// `xmm1`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct LoHi {
-    pub lo: f64,
-    pub hi: f64,
-}
+/// returns the decoration (0 or 1). Runs in round-up mode: called only
+/// through [`mxcsr::call_grad_up`].
+pub(crate) type BoxFn = unsafe extern "C" fn(*const f64, *mut f64, *const f64) -> u8;
+/// Single-box interval kernel: one input record; returns `lo` in `xmm0`,
+/// `hi` in `xmm1` and the decoration in `al` (three return values, which
+/// no Rust signature expresses: the type only carries the address; it is
+/// called only through [`mxcsr::call_interval_up`]).
+pub(crate) type IntervalFn = unsafe extern "C" fn(*const f64, *const f64);
 
 /// Batch point-gradient kernel (see the ABI table): `out` gets `n` records
 /// of 4 f64.

@@ -134,7 +134,14 @@ fn define_entries(
             let entry = b.create_block();
             b.append_block_params_for_function_params(entry);
             b.switch_to_block(entry);
-            let pool_v = b.ins().iconst(ptr, pool_addr);
+            // The single-box entry points get the pool's address as their
+            // last argument (in a register, so that pool loads address it
+            // directly); the others build it from a constant.
+            let pool_v = if !batch && matches!(kind, Kind::Interval | Kind::Grad) {
+                *b.block_params(entry).last().expect("pool argument")
+            } else {
+                b.ins().iconst(ptr, pool_addr)
+            };
             let mut env = Env {
                 b,
                 pool: pool_v,

@@ -70,66 +70,142 @@ pub unsafe extern "C" fn isoc_rm_enter(save: *mut u32) {
     )
 }
 
-/// [`isoc_rm_enter`] for single-box calls, without reading the MXCSR
-/// when the caller rounds to nearest.
+/// The probe and mode switch before a single-box call (see
+/// [`call_interval_up`]); `r12` holds the save slot's address, `{up}` is
+/// a static holding [`MXCSR_UP`]. Writes `rax`, `rcx`, `r8`, `xmm0`,
+/// `xmm1` (none of them an input).
+macro_rules! probe_and_enter {
+    () => {
+        concat!(
+            // xmm0 = (0.5, 1.5), built in registers.
+            "mov rax, 0x3FE0000000000000\n",
+            "movq xmm0, rax\n",
+            "mov rax, 0x3FF8000000000000\n",
+            "movq xmm1, rax\n",
+            "unpcklpd xmm0, xmm1\n",
+            // Round to integers in the caller's direction (imm bit 2), no
+            // inexact exception (bit 3): (+0, 2) iff rounding to nearest.
+            "roundpd xmm0, xmm0, 12\n",
+            "movq rax, xmm0\n",
+            "pextrq rcx, xmm0, 1\n",
+            "mov r8, 0x4000000000000000\n",
+            "xor rcx, r8\n",
+            "or rax, rcx\n",
+            "jnz 2f\n",
+            "mov dword ptr [r12], 0x1F80\n",
+            "jmp 3f\n",
+            "2:\n",
+            "stmxcsr dword ptr [r12]\n",
+            "3:\n",
+            "ldmxcsr dword ptr [rip + {up}]\n",
+        )
+    };
+}
+
+/// [`MXCSR_UP`] in memory, for `ldmxcsr`.
+static UP: u32 = MXCSR_UP;
+
+/// Calls the single-box interval kernel `f` on the record at `input` in
+/// round-up mode; returns its `(lo, hi, defined)`.
+///
+/// The single-box kernels do not switch the mode themselves: this inline
+/// assembly does it around the call, so that nothing but the kernel runs
+/// in round-up mode, the results come back in registers (Cranelift cannot
+/// schedule the body after a `ret`), and a single call costs two
+/// `ldmxcsr` and no helper calls.
 ///
 /// `stmxcsr` waits for every `ldmxcsr` still in flight, so in a loop of
-/// single calls, each ending with the restoring `ldmxcsr`, every next
-/// call's save stalls (figures in `docs/jit.md`). This routine first
-/// *probes* the caller's rounding direction: `roundpd` with the "use
-/// MXCSR.RC" and "suppress inexact" immediate rounds `(0.5, 1.5)` to
-/// integers, which gives `(+0, 2)` exactly when the caller rounds to
-/// nearest (`(1, 2)` rounding up, `(0, 1)` down or toward zero), and
-/// raises no exception flag. Rounding to nearest, it records
-/// [`MXCSR_DEFAULT`] at `save` — the state Rust code runs in — without
-/// reading the register; otherwise it saves the MXCSR as
-/// [`isoc_rm_enter`] does. Either way it loads [`MXCSR_UP`].
+/// single calls each save would stall behind the previous call's restore
+/// (figures in `docs/jit.md`). So the caller's rounding direction is first
+/// *probed*: `roundpd` with the "use MXCSR.RC" and "suppress inexact"
+/// immediate rounds `(0.5, 1.5)` to integers, which gives `(+0, 2)`
+/// exactly when the caller rounds to nearest (`(1, 2)` rounding up, `(0,
+/// 1)` down or toward zero) and raises no exception flag. Rounding to
+/// nearest, [`MXCSR_DEFAULT`] — the state Rust code runs in — is what
+/// gets restored, without reading the register; otherwise the MXCSR is
+/// saved and restored whole.
 ///
 /// # Limits
 /// A caller that rounds to nearest gets [`MXCSR_DEFAULT`] back:
 /// flush-to-zero and denormals-are-zero off, sticky exception flags clear
 /// (probing those would take subnormal arithmetic, which costs a
 /// microcode assist of ~100 cycles). A caller in another rounding
-/// direction gets its whole MXCSR back, bit for bit. `roundpd` is SSE4.1:
-/// on a processor without it, [`super::helpers`] binds this routine's
-/// symbol to [`isoc_rm_enter`] instead.
+/// direction gets its whole MXCSR back, bit for bit. `roundpd` is SSE4.1,
+/// which `Kernels` checks before it uses the single-box kernels.
 ///
 /// # Safety
-/// As [`isoc_rm_enter`]; the processor has SSE4.1.
-#[unsafe(naked)]
-pub unsafe extern "C" fn isoc_rm_enter_probe(save: *mut u32) {
-    core::arch::naked_asm!(
-        // xmm0 = (0.5, 1.5), built in registers.
-        "mov rax, {half}",
-        "movq xmm0, rax",
-        "mov rax, {one_half}",
-        "movq xmm1, rax",
-        "unpcklpd xmm0, xmm1",
-        // Round to integers in the caller's direction (imm bit 2), no
-        // inexact exception (bit 3).
-        "roundpd xmm0, xmm0, 12",
-        "movq rax, xmm0",
-        "pextrq rcx, xmm0, 1",
-        // Nearest iff lane 0 is +0 (all bits clear) and lane 1 is 2.
-        "mov r8, {two}",
-        "xor rcx, r8",
-        "or rax, rcx",
-        "jnz 2f",
-        "mov dword ptr [rdi], {default}",
-        "jmp 3f",
-        "2:",
-        "stmxcsr dword ptr [rdi]",
-        "3:",
-        // The red zone below rsp is ours in a leaf routine.
-        "mov dword ptr [rsp - 8], {up}",
-        "ldmxcsr dword ptr [rsp - 8]",
-        "ret",
-        half = const 0x3FE0_0000_0000_0000u64,
-        one_half = const 0x3FF8_0000_0000_0000u64,
-        two = const 0x4000_0000_0000_0000u64,
-        default = const MXCSR_DEFAULT,
-        up = const MXCSR_UP,
-    )
+/// `f` is the address of a finalized single-box interval kernel
+/// (`entry_sig(Interval, false)`), `input` points to one record of 8 f64, `pool` is the
+/// constant pool `f` was compiled for, the processor has SSE4.1.
+#[inline]
+pub(crate) unsafe fn call_interval_up(
+    f: *const u8,
+    input: *const f64,
+    pool: *const f64,
+) -> (f64, f64, u8) {
+    let mut save: u32 = 0;
+    let (lo, hi, d): (f64, f64, u64);
+    // SAFETY: the caller's promises; the asm saves and restores the mode
+    // around the call and declares every register the C ABI lets `f`
+    // clobber. `f` returns `lo` in xmm0, `hi` in xmm1 and the flag in rax
+    // (Cranelift's System V multi-value return).
+    unsafe {
+        core::arch::asm!(
+            probe_and_enter!(),
+            "call r11",
+            "ldmxcsr dword ptr [r12]",
+            // `f` in a register the probe leaves alone, `save` in one the
+            // call preserves.
+            in("r11") f,
+            in("r12") &mut save,
+            up = sym UP,
+            in("rdi") input,
+            in("rsi") pool,
+            out("xmm0") lo,
+            out("xmm1") hi,
+            out("rax") d,
+            clobber_abi("C"),
+        );
+    }
+    (lo, hi, d as u8)
+}
+
+/// [`call_interval_up`] for the single-box gradient kernel `f`, which
+/// writes its 8 f64 at `out` and returns the flag.
+///
+/// # Safety
+/// As [`call_interval_up`], with `f` a single-box gradient kernel and
+/// `out` valid for 8 f64.
+#[inline]
+pub(crate) unsafe fn call_grad_up(
+    f: *const u8,
+    input: *const f64,
+    out: *mut f64,
+    pool: *const f64,
+) -> u8 {
+    let mut save: u32 = 0;
+    let d: u64;
+    // SAFETY: as in `call_interval_up`; `f` writes `out` before it
+    // returns, and the asm block is not `nomem`, so the compiler does not
+    // read `out` before it.
+    unsafe {
+        core::arch::asm!(
+            probe_and_enter!(),
+            "call r11",
+            "ldmxcsr dword ptr [r12]",
+            // `f` in a register the probe leaves alone, `save` in one the
+            // call preserves.
+            in("r11") f,
+            in("r12") &mut save,
+            up = sym UP,
+            in("rdi") input,
+            in("rsi") out,
+            in("rdx") pool,
+            out("rax") d,
+            clobber_abi("C"),
+        );
+    }
+    d as u8
 }
 
 /// Restores the MXCSR saved by [`isoc_rm_enter`] at `save`.
