@@ -102,10 +102,26 @@ pub(super) fn emit_entry(
 
 /// The variables `prog` reads (only those are loaded).
 fn used_vars(prog: &ir::Program) -> [bool; 4] {
+    // Only the variables the output depends on: the others cannot change
+    // its value, nor its flag (a flag flows from operands to results).
+    let mut live = vec![false; prog.len()];
+    if let Some(l) = live.get_mut(prog.output.index()) {
+        *l = true;
+    }
     let mut used = [false; 4];
-    for op in &prog.insts {
-        if let ir::Op::Var(v) = op {
-            used[v.index()] = true;
+    for i in (0..prog.len()).rev() {
+        if !live[i] {
+            continue;
+        }
+        match &prog.insts[i] {
+            ir::Op::Var(v) => used[v.index()] = true,
+            op => {
+                for a in op.args() {
+                    if let Some(l) = live.get_mut(a.index()) {
+                        *l = true;
+                    }
+                }
+            }
         }
     }
     used
@@ -121,19 +137,28 @@ fn emit_box_record(
     ia: Value,
     oa: Value,
 ) -> Value {
-    let input = box_input(env, used, ia);
-    store_box_result(env, prog, kind, input, oa)
+    let (input, ok) = box_input(env, used, ia);
+    let d = store_box_result(env, prog, kind, input, oa);
+    env.b.ins().band(d, ok)
 }
 
-/// The four input intervals of the record at `ia`, normalised; only the
-/// variables the program reads are loaded.
+/// The four input intervals of the record at `ia`, normalised, and their
+/// flag: 1 when every bound read is a number (the `i8` AND of the inputs'
+/// flags). Only the variables the output depends on are loaded
+/// ([`used_vars`]), so that flag is what the output's decoration gets from
+/// the inputs: the intervals come with a statically true flag, and the
+/// caller ANDs it into the decoration once.
 ///
 /// Normalising a NaN bound (the entire line, undefined) takes two selects
 /// a bound; so the common case, every bound a number, branches past them:
 /// both paths join in a block whose parameters are the normalised bounds
-/// and flags ([`interval::normalize_ordered`] on the fast path,
+/// ([`interval::normalize_ordered`] on the fast path,
 /// [`interval::normalize`] on the other), and the body is emitted once.
-fn box_input(env: &mut Env, used: [bool; 4], ia: Value) -> [(interval::Iv, interval::Flag); 4] {
+fn box_input(
+    env: &mut Env,
+    used: [bool; 4],
+    ia: Value,
+) -> ([(interval::Iv, interval::Flag); 4], Value) {
     let raw: Vec<(usize, (Value, Value))> = (0..4)
         .filter(|&k| used[k])
         .map(|k| (k, env.read_lo_hi(ia, 16 * k as i32)))
@@ -143,7 +168,8 @@ fn box_input(env: &mut Env, used: [bool; 4], ia: Value) -> [(interval::Iv, inter
         ((z, z), None)
     };
     if raw.is_empty() {
-        return [(); 4].map(|_| zero(env));
+        let one = env.b.ins().iconst(types::I8, 1);
+        return ([(); 4].map(|_| zero(env)), one);
     }
     let join = env.b.create_block();
     let slow = env.b.create_block();
@@ -159,28 +185,23 @@ fn box_input(env: &mut Env, used: [bool; 4], ia: Value) -> [(interval::Iv, inter
         fast_args.extend([n, h].map(clif::BlockArg::from));
         env.b.append_block_param(join, types::F64);
         env.b.append_block_param(join, types::F64);
-        env.b.append_block_param(join, types::I8);
-        let one = env.b.ins().iconst(types::I8, 1);
-        fast_args.push(one.into());
     }
     let all = all.expect("some variable is read");
     env.b.ins().brif(all, join, &fast_args, slow, &[]);
     env.b.switch_to_block(slow);
     let mut slow_args: Vec<clif::BlockArg> = Vec::new();
     for &(_, lo_hi) in &raw {
-        let ((n, h), ok) = interval::normalize(env, lo_hi);
-        let ok = interval::flag_value(env, ok);
-        slow_args.extend([n, h, ok].map(clif::BlockArg::from));
+        let ((n, h), _) = interval::normalize(env, lo_hi);
+        slow_args.extend([n, h].map(clif::BlockArg::from));
     }
     env.b.ins().jump(join, &slow_args);
     env.b.switch_to_block(join);
     let params = env.b.block_params(join).to_vec();
     let mut out = [(); 4].map(|_| None);
     for (j, &(k, _)) in raw.iter().enumerate() {
-        let p = &params[3 * j..3 * j + 3];
-        out[k] = Some(((p[0], p[1]), Some(p[2])));
+        out[k] = Some(((params[2 * j], params[2 * j + 1]), None));
     }
-    out.map(|v| v.unwrap_or_else(|| zero(env)))
+    (out.map(|v| v.unwrap_or_else(|| zero(env))), all)
 }
 
 /// A stack slot for the caller's MXCSR.
@@ -196,13 +217,15 @@ fn mxcsr_slot(env: &mut Env) -> clif::StackSlot {
 /// bounds and the flag for the interval kind, the flag for the gradient,
 /// whose eight bounds are stored at `out`.
 fn emit_box_single(env: &mut Env, prog: &ir::Program, kind: Kind, params: &[Value]) {
-    let input = box_input(env, used_vars(prog), params[0]);
+    let (input, ok) = box_input(env, used_vars(prog), params[0]);
     if kind == Kind::Interval {
         let ((n, h), d) = interval::lower(env, prog, input);
+        let d = env.b.ins().band(d, ok);
         let lo = env.b.ins().fneg(n);
         env.b.ins().return_(&[lo, h, d]);
     } else {
         let d = store_box_result(env, prog, kind, input, params[1]);
+        let d = env.b.ins().band(d, ok);
         env.b.ins().return_(&[d]);
     }
 }

@@ -452,6 +452,32 @@ fn pow_bound(env: &mut Env, x: Value, mut n: u64, up: bool) -> Value {
 pub(super) const INLINE_POWI_MAX: i64 = 8;
 
 /// `[lo, hi]^n`, `n ≥ 1`.
+/// `[lo, hi]³`, bit for bit the odd rule of [`powi`] with one chain a
+/// bound instead of two and a select.
+///
+/// That rule takes, with `a = |n|`, `−lo = RU(a·RU(a·a))` when `n > 0` and
+/// `−RD(a·RD(a·a))` otherwise, computed as `RU(a·q)` with `q = RU((−a)·a)`
+/// (`rounding::mul_down` twice: `(−a)·(−q) = a·q` exactly). Both are
+/// `RU(a·RU(a′·a))` with `a′ = a` or `−a`: here `a′` is `a` with the sign
+/// of `max(n, −0)` — set exactly when `n ≤ 0`, zeros included. Likewise
+/// `hi` with the sign of `min(h, +0)`, set exactly when `h < 0`.
+fn cube(env: &mut Env, (n, h): Iv) -> Iv {
+    let b = &mut env.b;
+    let neg_zero = b.ins().f64const(-0.0);
+    let zero = b.ins().f64const(0.0);
+    let n_sign = pmax(b, n, neg_zero);
+    let h_sign = pmin(b, h, zero);
+    // `−0.0` is the sign bit alone: `band` with it keeps a sign.
+    let bound = |b: &mut cranelift_frontend::FunctionBuilder, v: Value, sign_of: Value| {
+        let a = b.ins().fabs(v);
+        let s = b.ins().band(sign_of, neg_zero);
+        let a_signed = b.ins().bxor(a, s);
+        let t = b.ins().fmul(a_signed, a);
+        b.ins().fmul(a, t)
+    };
+    (bound(b, n, n_sign), bound(b, h, h_sign))
+}
+
 pub(super) fn powi(env: &mut Env, (n, h): Iv, k: u64) -> Iv {
     if k == 1 {
         return (n, h);
@@ -463,6 +489,9 @@ pub(super) fn powi(env: &mut Env, (n, h): Iv, k: u64) -> Iv {
         let nl = env.b.ins().fneg(l);
         let hh = pow_bound(env, mag, k, true);
         return (nl, hh);
+    }
+    if k == 3 {
+        return cube(env, (n, h));
     }
     // Odd: monotone increasing; x^k = sign(x)·|x|^k.
     let alo = env.b.ins().fabs(n);
