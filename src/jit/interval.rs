@@ -53,11 +53,27 @@ struct Val {
     iv: Iv,
     flag: Flag,
     k: Option<Konst>,
+    /// Known at compile time: the lower bound is `≥ 0` (`n ≤ 0`) whenever
+    /// the flag is true (a square, an absolute value, a root, an even
+    /// power, or a sum or product of such values and nonnegative
+    /// constants). With a false flag the bounds may be anything.
+    nonneg: bool,
 }
 
 impl Val {
     fn new(iv: Iv, flag: Flag) -> Val {
-        Val { iv, flag, k: None }
+        Val {
+            iv,
+            flag,
+            k: None,
+            nonneg: false,
+        }
+    }
+    fn nonneg(iv: Iv, flag: Flag) -> Val {
+        Val {
+            nonneg: true,
+            ..Val::new(iv, flag)
+        }
     }
 }
 
@@ -79,29 +95,41 @@ impl NumKind for IntervalNum {
             iv,
             flag,
             k: Konst::of(c),
+            nonneg: Interval::new(c.lo, c.hi).normalize().0.lo >= 0.0,
         }
     }
     fn neg(&self, _env: &mut Env, a: Val) -> Val {
         Val::new(neg(a.iv), None)
     }
     fn abs(&self, env: &mut Env, a: Val) -> Val {
-        Val::new(abs(env, a.iv), None)
+        Val::nonneg(abs(env, a.iv), None)
     }
     fn sqrt(&self, env: &mut Env, a: Val) -> Val {
         let (iv, flag) = sqrt(env, a.iv);
-        Val::new(iv, flag)
+        Val::nonneg(iv, flag)
     }
     fn square(&self, env: &mut Env, a: Val) -> Val {
-        Val::new(square(env, a.iv), None)
+        Val::nonneg(square(env, a.iv), None)
     }
     fn add(&self, env: &mut Env, a: Val, b: Val) -> Val {
-        Val::new(add(env, a.iv, b.iv), None)
+        Val {
+            nonneg: a.nonneg && b.nonneg,
+            ..Val::new(add(env, a.iv, b.iv), None)
+        }
     }
     fn sub(&self, env: &mut Env, a: Val, b: Val) -> Val {
         Val::new(sub(env, a.iv, b.iv), None)
     }
     fn mul(&self, env: &mut Env, a: Val, b: Val) -> Val {
-        Val::new(mul_known(env, a.iv, a.k, b.iv, b.k), None)
+        let iv = match (a.k, b.k, a.nonneg, b.nonneg) {
+            (None, None, _, true) => mul_by_nonneg(env, a.iv, b.iv),
+            (None, None, true, false) => mul_by_nonneg(env, b.iv, a.iv),
+            _ => mul_known(env, a.iv, a.k, b.iv, b.k),
+        };
+        Val {
+            nonneg: a.nonneg && b.nonneg,
+            ..Val::new(iv, None)
+        }
     }
     fn min(&self, env: &mut Env, a: Val, b: Val) -> Val {
         Val::new(min(env, a.iv, b.iv), None)
@@ -117,7 +145,12 @@ impl NumKind for IntervalNum {
         } else {
             env.call_iv_powi(a.iv, n)
         };
-        Val::new(iv, flag)
+        // x⁰ = 1; even powers are ≥ 0 (inline and helper enclosures
+        // alike); odd powers keep the sign.
+        Val {
+            nonneg: n == 0 || (n > 0 && n % 2 == 0) || (n > 0 && a.nonneg),
+            ..Val::new(iv, flag)
+        }
     }
     fn unary_call(&self, env: &mut Env, u: UnOp, a: Val) -> Val {
         let (iv, flag) = env.call_iv_unary(u, a.iv);
@@ -333,6 +366,30 @@ pub(super) fn mul(env: &mut Env, a: Iv, c: Iv) -> Iv {
     let n0 = seed(b, nha, c.1);
     let n = chain(b, n0, [(a.0, lc), (a.0, c.1), (a.1, c.0)]);
     (n, h)
+}
+
+/// `x · y` for a `y` known to be nonnegative ([`Val::nonneg`]): `x·y` is
+/// monotone in `y` with the sign of `x`'s bound, so each bound of the
+/// product is one product, `hi = RU(h_x · (h_x ≥ 0 ? h_y : l_y))` and
+/// `−lo = RU(n_x · (n_x > 0 ? h_y : l_y))` (`l_y = −n_y ≥ 0`) — the corner
+/// [`mul`] would find largest, rounded the same way. A NaN product
+/// (`0·∞`) stands for 0, as in [`mul`]: with `y ≥ 0` it comes from `h_x =
+/// 0, h_y = ∞` (then `x ≤ 0` and the supremum is 0) or from `y = [0, 0]`.
+pub(super) fn mul_by_nonneg(env: &mut Env, x: Iv, y: Iv) -> Iv {
+    let b = &mut env.b;
+    let zero = b.ins().f64const(0.0);
+    let ly = b.ins().fneg(y.0);
+    let h_nonneg = b.ins().fcmp(FloatCC::GreaterThanOrEqual, x.1, zero);
+    let yh = b.ins().select(h_nonneg, y.1, ly);
+    let lo_neg = b.ins().fcmp(FloatCC::GreaterThan, x.0, zero);
+    let yn = b.ins().select(lo_neg, y.1, ly);
+    let nan_zero = |b: &mut cranelift_frontend::FunctionBuilder, p: Value| {
+        let nan = b.ins().fcmp(FloatCC::Unordered, p, p);
+        b.ins().select(nan, zero, p)
+    };
+    let h = b.ins().fmul(x.1, yh);
+    let n = b.ins().fmul(x.0, yn);
+    (nan_zero(b, n), nan_zero(b, h))
 }
 
 /// A constant's enclosure `[lo, hi]` as known at compile time (the
