@@ -19,9 +19,10 @@
 //! | `sub` | `(n_a + h_b, h_a + n_b)` |
 //! | `mul` | `(max RU(−x·y), max RU(x·y))` over the four bound pairs (a NaN product `0·∞` counts as 0) |
 //! | `mul` by a constant of known sign | one product per bound ([`mul_by_konst`]) |
+//! | `mul` by a value known to be `≥ 0` | one product per bound, the corner chosen by the other factor's signs ([`mul_by_nonneg`]) |
 //! | `square` | `(RU(−mig·mig), RU(mag²))` |
 //! | `sqrt` | `(−RD(√max(lo,0)), RU(√hi))`, empty when `hi < 0`; defined iff `lo ≥ 0` |
-//! | `powi a n`, `1 ≤ n ≤ 8` | exact monotone rules on `mig`/`mag` (even `n`) or the signed bounds (odd `n`), each product of the repeated squaring rounded in its direction |
+//! | `powi a n`, `1 ≤ n ≤ 8` | exact monotone rules on `mig`/`mag` (even `n`) or the signed bounds (odd `n`), each product of the repeated squaring rounded in its direction (the cube: one chain a bound, [`cube`]) |
 //!
 //! (`powi a 0` is the pool's `[1, 1]`.) Everything else (`div`, other
 //! `powi`, transcendentals, `atan2`, `pow`) calls [`crate::interval`]'s
@@ -30,9 +31,15 @@
 //!
 //! Each rule is a function of this file on [`Iv`] (`add`, `mul_known`,
 //! `sqrt`, …); [`IntervalNum`], the interval kind of the one lowering
-//! ([`super::lower`]), calls them and carries the decorations. The
+//! ([`super::lower`]), calls them and carries the decorations and what is
+//! known of each value at compile time (a constant's bounds, "`≥ 0`"). The
 //! interval-gradient kind ([`super::grad`]) computes its values with the
-//! same functions.
+//! same functions (without the "`≥ 0`" products).
+//!
+//! A kernel's input flags are not carried value by value: the entry point
+//! ANDs them into the output's decoration once ([`super::entry`]), which is
+//! the same flag because it loads only the variables the output depends
+//! on.
 
 use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{InstBuilder, Value, types};
