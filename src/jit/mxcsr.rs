@@ -70,43 +70,11 @@ pub unsafe extern "C" fn isoc_rm_enter(save: *mut u32) {
     )
 }
 
-/// The probe and mode switch before a single-box call (see
-/// [`call_interval_up`]); `r12` holds the save slot's address, `{up}` is
-/// a static holding [`MXCSR_UP`]. Writes `rax`, `rcx`, `r8`, `xmm0`,
-/// `xmm1` (none of them an input).
-macro_rules! probe_and_enter {
-    () => {
-        concat!(
-            // xmm0 = (0.5, 1.5), built in registers.
-            "mov rax, 0x3FE0000000000000\n",
-            "movq xmm0, rax\n",
-            "mov rax, 0x3FF8000000000000\n",
-            "movq xmm1, rax\n",
-            "unpcklpd xmm0, xmm1\n",
-            // Round to integers in the caller's direction (imm bit 2), no
-            // inexact exception (bit 3): (+0, 2) iff rounding to nearest.
-            "roundpd xmm0, xmm0, 12\n",
-            "movq rax, xmm0\n",
-            "pextrq rcx, xmm0, 1\n",
-            "mov r8, 0x4000000000000000\n",
-            "xor rcx, r8\n",
-            "or rax, rcx\n",
-            "jnz 2f\n",
-            "mov dword ptr [r12], 0x1F80\n",
-            "jmp 3f\n",
-            "2:\n",
-            "stmxcsr dword ptr [r12]\n",
-            "3:\n",
-            "ldmxcsr dword ptr [rip + {up}]\n",
-        )
-    };
-}
-
 /// [`MXCSR_UP`] in memory, for `ldmxcsr`.
 static UP: u32 = MXCSR_UP;
 
-/// Calls the single-box interval kernel `f` on the record at `input` in
-/// round-up mode; returns its `(lo, hi, defined)`.
+/// Calls the single-box kernel at `f` with `args` in `rdi`, `rsi`, `rdx`,
+/// in round-up mode; returns what it leaves in `xmm0`, `xmm1` and `rax`.
 ///
 /// The single-box kernels do not switch the mode themselves: this inline
 /// assembly does it around the call, so that nothing but the kernel runs
@@ -134,24 +102,39 @@ static UP: u32 = MXCSR_UP;
 /// which `Kernels` checks before it uses the single-box kernels.
 ///
 /// # Safety
-/// `f` is the address of a finalized single-box interval kernel
-/// (`entry_sig(Interval, false)`), `input` points to one record of 8 f64, `pool` is the
-/// constant pool `f` was compiled for, the processor has SSE4.1.
+/// `f` is the address of a finalized single-box kernel whose arguments
+/// `args` are valid (`entry_sig(kind, false)`), the processor has SSE4.1.
 #[inline]
-pub(crate) unsafe fn call_interval_up(
-    f: *const u8,
-    input: *const f64,
-    pool: *const f64,
-) -> (f64, f64, u8) {
+unsafe fn call_up(f: *const u8, args: [usize; 3]) -> (f64, f64, u64) {
     let mut save: u32 = 0;
-    let (lo, hi, d): (f64, f64, u64);
+    let (x0, x1, r): (f64, f64, u64);
     // SAFETY: the caller's promises; the asm saves and restores the mode
     // around the call and declares every register the C ABI lets `f`
-    // clobber. `f` returns `lo` in xmm0, `hi` in xmm1 and the flag in rax
-    // (Cranelift's System V multi-value return).
+    // clobber; the probe writes only `rax rcx r8 xmm0 xmm1`, none of them
+    // an input. The block is not `nomem`: memory `f` writes is seen after.
     unsafe {
         core::arch::asm!(
-            probe_and_enter!(),
+            // xmm0 = (0.5, 1.5), built in registers.
+            "mov rax, 0x3FE0000000000000",
+            "movq xmm0, rax",
+            "mov rax, 0x3FF8000000000000",
+            "movq xmm1, rax",
+            "unpcklpd xmm0, xmm1",
+            // Round to integers in the caller's direction (imm bit 2), no
+            // inexact exception (bit 3): (+0, 2) iff rounding to nearest.
+            "roundpd xmm0, xmm0, 12",
+            "movq rax, xmm0",
+            "pextrq rcx, xmm0, 1",
+            "mov r8, 0x4000000000000000",
+            "xor rcx, r8",
+            "or rax, rcx",
+            "jnz 2f",
+            "mov dword ptr [r12], 0x1F80",
+            "jmp 3f",
+            "2:",
+            "stmxcsr dword ptr [r12]",
+            "3:",
+            "ldmxcsr dword ptr [rip + {up}]",
             "call r11",
             "ldmxcsr dword ptr [r12]",
             // `f` in a register the probe leaves alone, `save` in one the
@@ -159,18 +142,41 @@ pub(crate) unsafe fn call_interval_up(
             in("r11") f,
             in("r12") &mut save,
             up = sym UP,
-            in("rdi") input,
-            in("rsi") pool,
-            out("xmm0") lo,
-            out("xmm1") hi,
-            out("rax") d,
+            in("rdi") args[0],
+            in("rsi") args[1],
+            in("rdx") args[2],
+            out("xmm0") x0,
+            out("xmm1") x1,
+            out("rax") r,
             clobber_abi("C"),
         );
     }
+    (x0, x1, r)
+}
+
+/// Calls the single-box interval kernel at `f` on the record at `input`
+/// with its constant pool `pool`, in round-up mode ([`call_up`]); returns
+/// `(lo, hi, defined)`.
+///
+/// # Safety
+/// `f` is the address of a finalized single-box interval kernel
+/// (`entry_sig(Interval, false)`), `input` points to one record of 8 f64,
+/// `pool` is the constant pool `f` was compiled for, the processor has
+/// SSE4.1.
+#[inline]
+pub(crate) unsafe fn call_interval_up(
+    f: *const u8,
+    input: *const f64,
+    pool: *const f64,
+) -> (f64, f64, u8) {
+    // SAFETY: the caller's promises; the kernel returns `lo` in xmm0, `hi`
+    // in xmm1 and the flag in `al` (Cranelift's System V multi-value
+    // return).
+    let (lo, hi, d) = unsafe { call_up(f, [input as usize, pool as usize, 0]) };
     (lo, hi, d as u8)
 }
 
-/// [`call_interval_up`] for the single-box gradient kernel `f`, which
+/// [`call_interval_up`] for the single-box gradient kernel at `f`, which
 /// writes its 8 f64 at `out` and returns the flag.
 ///
 /// # Safety
@@ -183,28 +189,8 @@ pub(crate) unsafe fn call_grad_up(
     out: *mut f64,
     pool: *const f64,
 ) -> u8 {
-    let mut save: u32 = 0;
-    let d: u64;
-    // SAFETY: as in `call_interval_up`; `f` writes `out` before it
-    // returns, and the asm block is not `nomem`, so the compiler does not
-    // read `out` before it.
-    unsafe {
-        core::arch::asm!(
-            probe_and_enter!(),
-            "call r11",
-            "ldmxcsr dword ptr [r12]",
-            // `f` in a register the probe leaves alone, `save` in one the
-            // call preserves.
-            in("r11") f,
-            in("r12") &mut save,
-            up = sym UP,
-            in("rdi") input,
-            in("rsi") out,
-            in("rdx") pool,
-            out("rax") d,
-            clobber_abi("C"),
-        );
-    }
+    // SAFETY: the caller's promises; the flag comes back in `al`.
+    let (_, _, d) = unsafe { call_up(f, [input as usize, out as usize, pool as usize]) };
     d as u8
 }
 
