@@ -8,7 +8,9 @@
 //! inline, with the interval kernel's outward rounded rules
 //! ([`super::interval`]) and the reference's derivative rules
 //! ([`crate::eval::grad`]: `abs`, `min`, `max` take the derivative of the
-//! certain branch or the hull, flagged not differentiable; `d√a = da/(2√a)`,
+//! certain branch or the hull, flagged not differentiable — `min`/`max`
+//! by a branch to the certain operand's components, the hull on the rare
+//! third path; `d√a = da/(2√a)`,
 //! flagged where `2√a` may be 0); every other op spills its operands to a
 //! stack slot and calls a chain-rule helper ([`super::helpers`]) built on
 //! [`crate::interval`]'s enclosures.
@@ -30,7 +32,7 @@
 //! functions ([`super::interval`]), its derivatives by the rules here.
 
 use cranelift_codegen::ir::condcodes::FloatCC;
-use cranelift_codegen::ir::{InstBuilder, Value, types};
+use cranelift_codegen::ir::{BlockArg, InstBuilder, Value, types};
 
 use super::interval::{self, Flag, Iv};
 use super::lower::{NumKind, body};
@@ -217,17 +219,70 @@ impl GradNum {
         };
         let sure = env.b.ins().bor(first, second);
         let zero = env.b.ins().f64const(0.0);
-        let d = std::array::from_fn(|k| match (a.d[k], b.d[k]) {
-            (D::Zero, D::Zero) => D::Zero,
-            (x, y) => {
-                let (x, y) = (iv_of(x, zero, self.one), iv_of(y, zero, self.one));
-                let hull = (env.b.ins().fmax(x.0, y.0), env.b.ins().fmax(x.1, y.1));
-                let r = select_iv(env, second, y, hull);
-                D::V(select_iv(env, first, x, r))
+        // The components to choose between (both known zero: nothing to
+        // choose).
+        let live: Vec<(usize, Iv, Iv)> = (0..3)
+            .filter(|&k| !matches!((a.d[k], b.d[k]), (D::Zero, D::Zero)))
+            .map(|k| {
+                (
+                    k,
+                    iv_of(a.d[k], zero, self.one),
+                    iv_of(b.d[k], zero, self.one),
+                )
+            })
+            .collect();
+        let mut d = [D::Zero; 3];
+        if !live.is_empty() {
+            // A branch, not selects: in a CSG model one operand is
+            // nearly always the certain one, and the hull is the rare
+            // case. All three paths join with the chosen components as
+            // block parameters.
+            let join = env.b.create_block();
+            let pick_b = env.b.create_block();
+            let not_a = env.b.create_block();
+            let hull = env.b.create_block();
+            for _ in 0..2 * live.len() {
+                env.b.append_block_param(join, types::F64);
             }
-        });
-        let f = own_flags(env, None, sure);
-        (with_flags(env, G::new(v, d), f), true)
+            let args = |f: &dyn Fn(&(usize, Iv, Iv)) -> Iv| -> Vec<BlockArg> {
+                live.iter()
+                    .flat_map(|c| {
+                        let (n, h) = f(c);
+                        [BlockArg::from(n), BlockArg::from(h)]
+                    })
+                    .collect()
+            };
+            let from_a = args(&|c| c.1);
+            env.b.ins().brif(first, join, &from_a, not_a, &[]);
+            env.b.switch_to_block(not_a);
+            env.b.ins().brif(second, pick_b, &[], hull, &[]);
+            env.b.switch_to_block(pick_b);
+            let from_b = args(&|c| c.2);
+            env.b.ins().jump(join, &from_b);
+            env.b.switch_to_block(hull);
+            let hulls: Vec<Iv> = live
+                .iter()
+                .map(|&(_, x, y)| (env.b.ins().fmax(x.0, y.0), env.b.ins().fmax(x.1, y.1)))
+                .collect();
+            let from_hull: Vec<BlockArg> = hulls
+                .iter()
+                .flat_map(|&(n, h)| [BlockArg::from(n), BlockArg::from(h)])
+                .collect();
+            env.b.ins().jump(join, &from_hull);
+            env.b.switch_to_block(join);
+            let params = env.b.block_params(join).to_vec();
+            for (j, &(k, _, _)) in live.iter().enumerate() {
+                d[k] = D::V((params[2 * j], params[2 * j + 1]));
+            }
+        }
+        // Own flags: the value is always defined; the derivatives where
+        // the choice is certain.
+        let g = G {
+            fv: None,
+            fd: Some(sure),
+            ..G::new(v, d)
+        };
+        (g, true)
     }
 }
 
