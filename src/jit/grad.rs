@@ -10,7 +10,8 @@
 //! ([`crate::eval::grad`]: `abs`, `min`, `max` take the derivative of the
 //! certain branch or the hull, flagged not differentiable — `min`/`max`
 //! by a branch to the certain operand's components, the hull on the rare
-//! third path; `d√a = da/(2√a)`,
+//! third path, or by selects under the single-pass register allocator,
+//! which spills at every join; `d√a = da/(2√a)`,
 //! flagged where `2√a` may be 0); every other op spills its operands to a
 //! stack slot and calls a chain-rule helper ([`super::helpers`]) built on
 //! [`crate::interval`]'s enclosures.
@@ -232,7 +233,15 @@ impl GradNum {
             })
             .collect();
         let mut d = [D::Zero; 3];
-        if !live.is_empty() {
+        if !env.cheap_joins {
+            // Selects: under the single-pass register allocator every
+            // join would spill all live values.
+            for &(k, x, y) in &live {
+                let hull = (env.b.ins().fmax(x.0, y.0), env.b.ins().fmax(x.1, y.1));
+                let r = select_iv(env, second, y, hull);
+                d[k] = D::V(select_iv(env, first, x, r));
+            }
+        } else if !live.is_empty() {
             // A branch, not selects: in a CSG model one operand is
             // nearly always the certain one, and the hull is the rare
             // case. All three paths join with the chosen components as

@@ -297,6 +297,11 @@ pub(crate) struct Env<'a> {
     iv_slot: Option<clif::StackSlot>,
     gd_slots: Option<[clif::StackSlot; 3]>,
     pg_slot: Option<clif::StackSlot>,
+    /// The backtracking register allocator compiles this function, so a
+    /// branch that joins again costs a few moves; the single-pass
+    /// allocator spills every live value at a join, and the lowering then
+    /// selects instead of branching per op.
+    cheap_joins: bool,
 }
 
 pub(crate) const POOL_STRIDE: usize = 3;

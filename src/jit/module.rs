@@ -43,14 +43,21 @@ impl Drop for ModuleOwner {
     }
 }
 
+/// Whether `prog` is compiled with Cranelift's single-pass register
+/// allocator (fast compilation asked for, or a long program), not the
+/// backtracking one.
+fn single_pass(opts: &JitOptions, prog: &ir::Program) -> bool {
+    opts.fast_compile || prog.len() > opts.single_pass_above
+}
+
 /// A fresh JIT module for `opts` with the helpers registered.
-fn new_module(opts: &JitOptions, large: bool) -> Result<JITModule, JitError> {
+fn new_module(opts: &JitOptions, single: bool) -> Result<JITModule, JitError> {
     let mut flags = settings::builder();
     let set = |f: &mut settings::Builder, k: &str, v: &str| {
         f.set(k, v).map_err(|e| JitError::Target(e.to_string()))
     };
     set(&mut flags, "opt_level", "speed")?;
-    let ra = if opts.fast_compile || large {
+    let ra = if single {
         "single_pass"
     } else {
         "backtracking"
@@ -82,8 +89,7 @@ pub(super) fn build(
     kind: Kind,
     batches: &[bool],
 ) -> Result<(ModuleOwner, Vec<*const u8>, Vec<KernelInfo>), JitError> {
-    let large = prog.len() > opts.single_pass_above;
-    let mut owner = ModuleOwner(Some(new_module(opts, large)?));
+    let mut owner = ModuleOwner(Some(new_module(opts, single_pass(opts, prog))?));
     let Some(module) = owner.0.as_mut() else {
         return Err(JitError::Target("no module".into()));
     };
@@ -150,6 +156,7 @@ fn define_entries(
                 iv_slot: None,
                 gd_slots: None,
                 pg_slot: None,
+                cheap_joins: !single_pass(opts, prog),
             };
             entry::emit_entry(&mut env, prog, kind, batch, entry, opts);
             env.b.seal_all_blocks();
