@@ -23,9 +23,10 @@ use crate::eval::grad::GradEval;
 use crate::interval::{DecInterval, Interval};
 use crate::ir::{self, Op};
 
-/// The compiled entry points of one kind: a batch entry point, and for
-/// the point kind a single one (`S = ()` otherwise: a single call is a
-/// batch of one).
+/// The compiled entry points of one kind's module: a batch entry point,
+/// and for the point kind a single one (`S = ()` otherwise: the interval
+/// and gradient kinds' single-box entry points are in a [`One`], and a
+/// single point-gradient call is a batch of one).
 struct Entry<S, B> {
     single: S,
     batch: B,

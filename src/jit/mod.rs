@@ -1,6 +1,7 @@
 //! The JIT: four Cranelift kernels per program behind `extern "C"` function
 //! pointers — point, interval, interval-gradient and point-gradient — each
-//! with a single and a batch entry point.
+//! with a batch entry point, and all but the point-gradient with a single
+//! one.
 //!
 //! # Contract
 //!

@@ -10,20 +10,21 @@
 //! - a batch kernel calls [`isoc_rm_enter`] first, which saves the
 //!   caller's MXCSR into a kernel stack slot and loads [`MXCSR_UP`] (round
 //!   up, all exceptions masked, no flush-to-zero, no denormals-are-zero —
-//!   whatever the caller had); a single-box kernel calls
-//!   [`isoc_rm_enter_probe`], which does the same without reading the
-//!   MXCSR of a caller that rounds to nearest (it records
-//!   [`MXCSR_DEFAULT`] instead: reading the register stalls behind the
-//!   previous call's restore);
-//! - it calls [`isoc_rm_leave`] before every return, which reloads the
-//!   saved MXCSR, flags included: the caller of a batch kernel sees its own
-//!   mode and its own sticky exception flags, as if the kernel had not run
-//!   (the caller of a single-box kernel too, unless it rounds to nearest:
-//!   then it gets [`MXCSR_DEFAULT`]);
-//! - every value a kernel returns is stored to memory before
-//!   [`isoc_rm_leave`] is called: Cranelift places a pure instruction at
-//!   its first use, and a call orders memory, so no arithmetic of the body
-//!   can be scheduled after the restore;
+//!   whatever the caller had);
+//! - it calls [`isoc_rm_leave`] before it returns, which reloads the
+//!   saved MXCSR, flags included: the caller sees its own mode and its own
+//!   sticky exception flags, as if the kernel had not run. Every result is
+//!   stored in the loop, before that call: Cranelift places a pure
+//!   instruction at its first use, and a call orders memory, so no
+//!   arithmetic of the body can be scheduled after the restore;
+//! - a single-box kernel switches nothing: the safe single calls bracket
+//!   it with inline assembly ([`call_interval_up`], [`call_grad_up`]) that
+//!   probes the caller's rounding direction, saves the MXCSR only if it is
+//!   not round to nearest (reading the register stalls behind the previous
+//!   call's restore), loads [`MXCSR_UP`], calls, and restores — the caller
+//!   in round to nearest gets [`MXCSR_DEFAULT`] back, any other caller its
+//!   own MXCSR; the results come back in registers, after the kernel's
+//!   `ret`, so nothing of the body runs after the restore;
 //! - **no Rust code runs in round-up mode**: every Rust helper an interval
 //!   kernel calls (CORE-MATH transcendentals, division, the gradient chain
 //!   rules) is reached through a trampoline ([`trampoline!`]) that loads
