@@ -100,10 +100,10 @@ pub(super) fn emit_entry(
     }
 }
 
-/// The variables `prog` reads (only those are loaded).
+/// The variables the output of `prog` depends on (only those are loaded:
+/// the others cannot change its value, nor its flag, which flows from
+/// operands to results).
 fn used_vars(prog: &ir::Program) -> [bool; 4] {
-    // Only the variables the output depends on: the others cannot change
-    // its value, nor its flag (a flag flows from operands to results).
     let mut live = vec![false; prog.len()];
     if let Some(l) = live.get_mut(prog.output.index()) {
         *l = true;
@@ -204,12 +204,6 @@ fn box_input(
     (out.map(|v| v.unwrap_or_else(|| zero(env))), all)
 }
 
-/// A stack slot for the caller's MXCSR.
-fn mxcsr_slot(env: &mut Env) -> clif::StackSlot {
-    env.b
-        .create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 8, 3))
-}
-
 /// The single-box interval or gradient entry point. It does not switch
 /// the rounding mode: its caller does, around the call
 /// ([`super::mxcsr::call_interval_up`]), so the body runs in round-up mode
@@ -217,15 +211,15 @@ fn mxcsr_slot(env: &mut Env) -> clif::StackSlot {
 /// bounds and the flag for the interval kind, the flag for the gradient,
 /// whose eight bounds are stored at `out`.
 fn emit_box_single(env: &mut Env, prog: &ir::Program, kind: Kind, params: &[Value]) {
-    let (input, ok) = box_input(env, used_vars(prog), params[0]);
+    let used = used_vars(prog);
     if kind == Kind::Interval {
+        let (input, ok) = box_input(env, used, params[0]);
         let ((n, h), d) = interval::lower(env, prog, input);
         let d = env.b.ins().band(d, ok);
         let lo = env.b.ins().fneg(n);
         env.b.ins().return_(&[lo, h, d]);
     } else {
-        let d = store_box_result(env, prog, kind, input, params[1]);
-        let d = env.b.ins().band(d, ok);
+        let d = emit_box_record(env, prog, kind, used, params[0], params[1]);
         env.b.ins().return_(&[d]);
     }
 }
@@ -233,7 +227,9 @@ fn emit_box_single(env: &mut Env, prog: &ir::Program, kind: Kind, params: &[Valu
 /// The interval or gradient batch entry point, bracketed by the
 /// rounding-mode switch.
 fn emit_box_batch(env: &mut Env, prog: &ir::Program, kind: Kind, params: &[Value]) {
-    let save_slot = mxcsr_slot(env);
+    let save_slot =
+        env.b
+            .create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 8, 3));
     let save = env.b.ins().stack_addr(env.ptr, save_slot, 0);
     env.call_void(Helper::RmEnter, &[save]);
     let f = Env::flags();

@@ -137,6 +137,11 @@ fn div_by_positive(env: &mut Env, x: Iv, t: Iv, t_lo: Value, pos: Value) -> Iv {
     (b.ins().select(pos, n, inf), b.ins().select(pos, h, inf))
 }
 
+/// The hull of two intervals in `(−lo, hi)` form: the larger of each.
+fn hull_iv(env: &mut Env, x: Iv, y: Iv) -> Iv {
+    (env.b.ins().fmax(x.0, y.0), env.b.ins().fmax(x.1, y.1))
+}
+
 /// `c ? x : y` on intervals.
 fn select_iv(env: &mut Env, c: Value, x: Iv, y: Iv) -> Iv {
     (
@@ -237,7 +242,7 @@ impl GradNum {
             // Selects: under the single-pass register allocator every
             // join would spill all live values.
             for &(k, x, y) in &live {
-                let hull = (env.b.ins().fmax(x.0, y.0), env.b.ins().fmax(x.1, y.1));
+                let hull = hull_iv(env, x, y);
                 let r = select_iv(env, second, y, hull);
                 d[k] = D::V(select_iv(env, first, x, r));
             }
@@ -253,31 +258,20 @@ impl GradNum {
             for _ in 0..2 * live.len() {
                 env.b.append_block_param(join, types::F64);
             }
-            let args = |f: &dyn Fn(&(usize, Iv, Iv)) -> Iv| -> Vec<BlockArg> {
-                live.iter()
-                    .flat_map(|c| {
-                        let (n, h) = f(c);
-                        [BlockArg::from(n), BlockArg::from(h)]
-                    })
+            let args = |ivs: &mut dyn Iterator<Item = Iv>| -> Vec<BlockArg> {
+                ivs.flat_map(|(n, h)| [BlockArg::from(n), BlockArg::from(h)])
                     .collect()
             };
-            let from_a = args(&|c| c.1);
+            let from_a = args(&mut live.iter().map(|c| c.1));
             env.b.ins().brif(first, join, &from_a, not_a, &[]);
             env.b.switch_to_block(not_a);
             env.b.ins().brif(second, pick_b, &[], hull, &[]);
             env.b.switch_to_block(pick_b);
-            let from_b = args(&|c| c.2);
+            let from_b = args(&mut live.iter().map(|c| c.2));
             env.b.ins().jump(join, &from_b);
             env.b.switch_to_block(hull);
-            let hulls: Vec<Iv> = live
-                .iter()
-                .map(|&(_, x, y)| (env.b.ins().fmax(x.0, y.0), env.b.ins().fmax(x.1, y.1)))
-                .collect();
-            let from_hull: Vec<BlockArg> = hulls
-                .iter()
-                .flat_map(|&(n, h)| [BlockArg::from(n), BlockArg::from(h)])
-                .collect();
-            env.b.ins().jump(join, &from_hull);
+            let hulls: Vec<Iv> = live.iter().map(|&(_, x, y)| hull_iv(env, x, y)).collect();
+            env.b.ins().jump(join, &args(&mut hulls.into_iter()));
             env.b.switch_to_block(join);
             let params = env.b.block_params(join).to_vec();
             for (j, &(k, _, _)) in live.iter().enumerate() {

@@ -208,15 +208,12 @@ pub(super) fn flag_value(env: &mut Env, f: Flag) -> Value {
 /// entire line, undefined; `lo = +∞` becomes `MAX`, `hi = −∞` becomes
 /// `−MAX` — and returns it in `(−lo, hi)` form.
 pub(super) fn normalize(env: &mut Env, (lo, hi): (Value, Value)) -> (Iv, Flag) {
+    // −lo = −∞ (lo = +∞) and hi = −∞ become −MAX; NaN (not ordered)
+    // becomes +∞ on both sides, the entire line.
+    let (n, h) = normalize_ordered(env, (lo, hi));
     let b = &mut env.b;
     let ok = b.ins().fcmp(FloatCC::Ordered, lo, hi);
     let pinf = b.ins().f64const(f64::INFINITY);
-    let nmax = b.ins().f64const(-f64::MAX);
-    let nlo = b.ins().fneg(lo);
-    // −lo = −∞ (lo = +∞) and hi = −∞ become −MAX; NaN (not ordered)
-    // becomes +∞ on both sides, the entire line.
-    let n = pmax(b, nlo, nmax);
-    let h = pmax(b, hi, nmax);
     let n = b.ins().select(ok, n, pinf);
     let h = b.ins().select(ok, h, pinf);
     ((n, h), Some(ok))
@@ -357,9 +354,7 @@ pub(super) fn mul(env: &mut Env, a: Iv, c: Iv) -> Iv {
     let lc = b.ins().fneg(c.0);
     let nha = b.ins().fneg(a.1);
     let seed = |b: &mut cranelift_frontend::FunctionBuilder, x: Value, y: Value| {
-        let p = b.ins().fmul(x, y);
-        let nan = b.ins().fcmp(FloatCC::Unordered, p, p);
-        b.ins().select(nan, zero, p)
+        product_or_zero(b, x, y, zero)
     };
     let chain = |b: &mut cranelift_frontend::FunctionBuilder, mut acc: Value, rest: [Iv; 3]| {
         for (x, y) in rest {
@@ -390,13 +385,22 @@ pub(super) fn mul_by_nonneg(env: &mut Env, x: Iv, y: Iv) -> Iv {
     let yh = b.ins().select(h_nonneg, y.1, ly);
     let lo_neg = b.ins().fcmp(FloatCC::GreaterThan, x.0, zero);
     let yn = b.ins().select(lo_neg, y.1, ly);
-    let nan_zero = |b: &mut cranelift_frontend::FunctionBuilder, p: Value| {
-        let nan = b.ins().fcmp(FloatCC::Unordered, p, p);
-        b.ins().select(nan, zero, p)
-    };
-    let h = b.ins().fmul(x.1, yh);
-    let n = b.ins().fmul(x.0, yn);
-    (nan_zero(b, n), nan_zero(b, h))
+    let n = product_or_zero(b, x.0, yn, zero);
+    let h = product_or_zero(b, x.1, yh, zero);
+    (n, h)
+}
+
+/// `x·y` rounded up, `zero` (an SSA `0.0`) where it is NaN: a `0·∞`
+/// corner stands for 0 in interval arithmetic.
+fn product_or_zero(
+    b: &mut cranelift_frontend::FunctionBuilder,
+    x: Value,
+    y: Value,
+    zero: Value,
+) -> Value {
+    let p = b.ins().fmul(x, y);
+    let nan = b.ins().fcmp(FloatCC::Unordered, p, p);
+    b.ins().select(nan, zero, p)
 }
 
 /// A constant's enclosure `[lo, hi]` as known at compile time (the

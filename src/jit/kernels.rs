@@ -128,7 +128,7 @@ impl Kernels {
                 return Err(e);
             }
         }
-        if std::arch::is_x86_feature_detected!("sse4.1") {
+        if super::mxcsr::single_box_bracket_runs() {
             k.interval_one_k()?;
             k.grad_one_k()?;
         }
@@ -256,7 +256,7 @@ impl Kernels {
     /// error on a processor without SSE4.1, which its mode bracket needs:
     /// single calls then make batches of one).
     fn compile_one<F: Copy>(&self, kind: Kind) -> Result<One<F>, JitError> {
-        if !std::arch::is_x86_feature_detected!("sse4.1") {
+        if !super::mxcsr::single_box_bracket_runs() {
             return Err(JitError::Target(
                 "no SSE4.1 for the single-box bracket".into(),
             ));

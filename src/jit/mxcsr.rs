@@ -74,6 +74,12 @@ pub unsafe extern "C" fn isoc_rm_enter(save: *mut u32) {
 /// [`MXCSR_UP`] in memory, for `ldmxcsr`.
 static UP: u32 = MXCSR_UP;
 
+/// Whether this processor runs the single-box bracket ([`call_up`]): its
+/// probe is SSE4.1's `roundpd`.
+pub(crate) fn single_box_bracket_runs() -> bool {
+    std::arch::is_x86_feature_detected!("sse4.1")
+}
+
 /// Calls the single-box kernel at `f` with `args` in `rdi`, `rsi`, `rdx`,
 /// in round-up mode; returns what it leaves in `xmm0`, `xmm1` and `rax`.
 ///
