@@ -483,7 +483,7 @@ fn mesh_command(
 
     let r = &report;
     let summary = format!(
-        "{}: {} triangles, {} vertices, {} component(s), euler {}, {}, {}\n",
+        "{}: {} triangles, {} vertices, {} component(s), euler {}, {}, {}, {}\n",
         output.display(),
         r.triangles,
         r.vertices,
@@ -493,6 +493,11 @@ fn mesh_command(
             "watertight"
         } else {
             "open"
+        },
+        if r.topology.manifold() {
+            "manifold".to_string()
+        } else {
+            format!("NOT manifold ({} bad edge(s))", r.topology.bad_edges())
         },
         if r.guaranteed {
             "topology guaranteed".to_string()
@@ -523,6 +528,8 @@ fn mesh_command(
             "euler": r.topology.euler,
             "genus": r.topology.genus,
             "watertight": r.topology.watertight,
+            "manifold": r.topology.manifold(),
+            "nonmanifold_edges": r.topology.bad_edges(),
             "ambiguous_cells": r.ambiguous_cells,
             "guaranteed": r.guaranteed,
             "max_level_reached": r.octree.max_level_reached,

@@ -8,10 +8,19 @@
 //! **watertight** when every edge is manifold and consistently oriented and
 //! no vertex is a non-manifold "bow-tie" (its triangles form one fan).
 //! For a closed orientable component, `χ = V − E + F = 2 − 2g`.
+//!
+//! **Manifold within a domain** (SPEC §2–3, [`analyze_in`]): a mesh cut by
+//! the domain Ω is open along ∂Ω, and only there. A boundary edge whose two
+//! ends lie on one face of Ω is *on the domain boundary*; any other boundary
+//! edge is an *open edge*. The mesh is [`Topology::manifold`] when no edge
+//! has three or more triangles, no edge is open and no vertex is a bow-tie.
 
 use std::collections::HashMap;
 
+use glam::DVec3;
+
 use super::{Mesh, Star};
+use crate::geometry::Bounds;
 
 /// What [`analyze`] finds.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -31,6 +40,9 @@ pub struct Topology {
     pub genus: Vec<Option<i64>>,
     /// Edges with exactly one triangle.
     pub boundary_edges: usize,
+    /// Boundary edges that do not lie on a face of the domain (all of them
+    /// when no domain is given; see the module doc).
+    pub open_edges: usize,
     /// Edges with three or more triangles.
     pub nonmanifold_edges: usize,
     /// Edges whose two triangles traverse them in the same direction.
@@ -39,6 +51,21 @@ pub struct Topology {
     pub nonmanifold_vertices: usize,
     /// Closed, consistently oriented 2-manifold (see the module doc).
     pub watertight: bool,
+}
+
+impl Topology {
+    /// The edges that break SPEC §2's manifold rule: used by three or more
+    /// triangles, or by one triangle away from the domain boundary (the
+    /// `--stats json` figure `nonmanifold_edges`).
+    pub fn bad_edges(&self) -> usize {
+        self.nonmanifold_edges + self.open_edges
+    }
+
+    /// A 2-manifold, closed but along the domain boundary: no bad edge and
+    /// no bow-tie vertex (see the module doc).
+    pub fn manifold(&self) -> bool {
+        self.bad_edges() == 0 && self.nonmanifold_vertices == 0
+    }
 }
 
 struct UnionFind(Vec<u32>);
@@ -60,8 +87,26 @@ impl UnionFind {
     }
 }
 
-/// Analyses `mesh`. See the module doc.
+/// Analyses `mesh`, with no domain: every boundary edge is open.
 pub fn analyze(mesh: &Mesh) -> Topology {
+    analyze_in(mesh, None)
+}
+
+/// Whether the segment `a b` lies on a face of `domain` (both ends on the
+/// same face plane, to a millionth of the domain's size: boundary vertices
+/// are bisected on ∂Ω and stay there).
+fn on_domain_face(a: DVec3, b: DVec3, domain: &Bounds) -> bool {
+    (0..3).any(|k| {
+        let tol = 1e-6 * (domain.hi[k] - domain.lo[k]).abs();
+        [domain.lo[k], domain.hi[k]]
+            .iter()
+            .any(|&plane| (a[k] - plane).abs() <= tol && (b[k] - plane).abs() <= tol)
+    })
+}
+
+/// Analyses `mesh`; boundary edges on a face of `domain` are not open (see
+/// the module doc).
+pub fn analyze_in(mesh: &Mesh, domain: Option<&Bounds>) -> Topology {
     let n = mesh.positions.len();
     let mut used = vec![false; n];
     let mut uf = UnionFind((0..n as u32).collect());
@@ -80,9 +125,21 @@ pub fn analyze(mesh: &Mesh) -> Topology {
     directed.sort_unstable();
     // Undirected edge (lower end) → uses forwards and backwards.
     let mut edges: Vec<(u32, (u32, u32))> = Vec::new();
+    let mut open = 0;
     let mut last = u64::MAX;
+    let mut close_last = |last: u64, edges: &[(u32, (u32, u32))]| {
+        if let Some(&(a, (fwd, back))) = edges.last() {
+            let b = (last & 0xffff_ffff) as usize;
+            let on_boundary = domain
+                .is_some_and(|d| on_domain_face(mesh.positions[a as usize], mesh.positions[b], d));
+            if fwd + back == 1 && !on_boundary {
+                open += 1;
+            }
+        }
+    };
     for &d in &directed {
         if d >> 1 != last {
+            close_last(last, &edges);
             last = d >> 1;
             edges.push(((d >> 33) as u32, (0, 0)));
         }
@@ -93,6 +150,7 @@ pub fn analyze(mesh: &Mesh) -> Topology {
             e.1 += 1;
         }
     }
+    close_last(last, &edges);
     drop(directed);
     let (mut boundary, mut nonmanifold, mut misoriented) = (0, 0, 0);
     for &(_, (fwd, back)) in &edges {
@@ -141,6 +199,7 @@ pub fn analyze(mesh: &Mesh) -> Topology {
         euler: v as i64 - edges.len() as i64 + mesh.triangles.len() as i64,
         genus,
         boundary_edges: boundary,
+        open_edges: open,
         nonmanifold_edges: nonmanifold,
         misoriented_edges: misoriented,
         nonmanifold_vertices,

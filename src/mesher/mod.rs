@@ -225,7 +225,10 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     let smooth_ms = ms(t0);
 
     let (topo, aspect_good) = if analyze {
-        (topology::analyze(&mesh), quality::aspect_good(&mesh))
+        (
+            topology::analyze_in(&mesh, Some(&domain)),
+            quality::aspect_good(&mesh),
+        )
     } else {
         (topology::Topology::default(), 0.0)
     };
@@ -362,7 +365,7 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
             report.triangles = mesh.triangles.len();
             report.vertices = mesh.positions.len();
             report.aspect_good = quality::aspect_good(&mesh);
-            report.topology = topology::analyze(&mesh);
+            report.topology = topology::analyze_in(&mesh, Some(&bounds));
             report.timings.adapt = ms(t0);
             // Any later mesh is the fallback's: at the cap, smoothed.
             o.smooth = opts.smooth;

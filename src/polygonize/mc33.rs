@@ -173,6 +173,32 @@ const fn face_edges() -> [[u8; 4]; 6] {
 /// `FACE_CORNERS[f][(k + 1) % 4]`.
 pub(crate) const FACE_EDGES: [[u8; 4]; 6] = face_edges();
 
+const fn edge_faces() -> [u8; 12] {
+    let mut out = [0u8; 12];
+    let mut f = 0;
+    while f < 6 {
+        let mut k = 0;
+        while k < 4 {
+            out[FACE_EDGES[f][k] as usize] |= 1 << f;
+            k += 1;
+        }
+        f += 1;
+    }
+    out
+}
+
+/// The faces holding each edge, a bit per face (two bits set).
+const EDGE_FACES: [u8; 12] = edge_faces();
+
+/// The faces a vertex lies on, a bit per face: an edge vertex's two, none
+/// for an interior vertex.
+fn faces_of(v: Vertex) -> u8 {
+    match v {
+        Vertex::Edge { edge, .. } => EDGE_FACES[(edge as usize).min(11)],
+        Vertex::Interior(_) => 0,
+    }
+}
+
 /// Maximum number of vertices of a cell mesh.
 pub const MAX_VERTS: usize = 24;
 /// Maximum number of triangles of a cell mesh.
@@ -692,6 +718,15 @@ fn orientation_quality(v: &[f64; 8], p: DVec3, q: DVec3, r: DVec3) -> f64 {
     n.dot(g)
 }
 
+/// Whether a chord between two vertices on faces `a` and `b` (bit masks,
+/// [`faces_of`]) crosses the cell's interior: they share no face. A chord
+/// inside a face could be drawn by the neighbouring cell too, whose
+/// triangles would then use the same edge (four triangles on one edge):
+/// triangulations draw their inner edges through the interior only.
+fn crosses_interior(a: u8, b: u8) -> bool {
+    a & b == 0
+}
+
 fn fill_disc(mesh: &mut CellMesh, v: &[f64; 8], lp: &[u8]) {
     let n = lp.len();
     if n == 3 {
@@ -703,9 +738,16 @@ fn fill_disc(mesh: &mut CellMesh, v: &[f64; 8], lp: &[u8]) {
             .map(|&i| mesh.verts[i as usize].position())
             .unwrap_or(DVec3::ZERO)
     });
-    // Best fan apex: maximise the worst orientation quality.
+    // Best fan apex: maximise the worst orientation quality, among the
+    // apices whose chords all cross the cell's interior (see
+    // [`crosses_interior`]).
+    let faces: [u8; 12] =
+        core::array::from_fn(|k| lp.get(k).map_or(0, |&i| faces_of(mesh.verts[i as usize])));
     let mut best = (f64::NEG_INFINITY, 0);
     for apex in 0..n {
+        if (2..n - 1).any(|i| !crosses_interior(faces[apex], faces[(apex + i) % n])) {
+            continue;
+        }
         let mut worst = f64::INFINITY;
         for i in 1..n - 1 {
             let (p, q, r) = (pos[apex], pos[(apex + i) % n], pos[(apex + i + 1) % n]);
@@ -752,16 +794,24 @@ fn stitch_tube(mesh: &mut CellMesh, v: &[f64; 8], a: &[u8], b: &[u8]) {
         *p = x.position();
     }
     let pos = |i: u8| vpos[i as usize % MAX_VERTS];
+    // A rung drawn inside a face could be the neighbour's edge too
+    // ([`crosses_interior`]): walks without one are preferred, and a walk
+    // that needs one takes the waist ring instead.
+    let inner = |x: u8, y: u8| {
+        let f = |i: u8| mesh.verts[i as usize % MAX_VERTS];
+        crosses_interior(faces_of(f(x)), faces_of(f(y)))
+    };
     let ai = |k: usize| k % m;
     // Walk: each step advances along a (true) or b (false); rungs are the
     // (a, b) pairs before and after each step. Every alignment of the two
     // loops is tried; each walk greedily takes the better oriented triangle.
-    let mut best = (f64::NEG_INFINITY, 0usize, [false; 24], 0usize);
+    let mut best = (false, f64::NEG_INFINITY, 0usize, [false; 24], 0usize);
     for j0 in 0..n {
         let bj = |k: usize| (j0 + n * 2 - k % n) % n;
         let mut steps = [false; 24];
         let mut ns = 0;
         let mut worst = f64::INFINITY;
+        let mut all_inner = inner(a[0], b[bj(0)]);
         let (mut ia, mut jb) = (0usize, 0usize);
         // The lattice path (ia, jb) from (0, 0) to (m, n) must not visit a
         // rung twice: (i, n) ≡ (i, 0) and (m, j) ≡ (0, j). `first_b` is ia at
@@ -794,15 +844,16 @@ fn stitch_tube(mesh: &mut CellMesh, v: &[f64; 8], a: &[u8], b: &[u8]) {
                 first_b.get_or_insert(ia);
                 jb += 1;
             }
+            all_inner &= inner(a[ai(ia)], b[bj(jb)]);
         }
         if ia != m || jb != n {
             continue;
         }
-        if worst > best.0 {
-            best = (worst, j0, steps, ns);
+        if (all_inner, worst) > (best.0, best.1) {
+            best = (all_inner, worst, j0, steps, ns);
         }
     }
-    let (worst, j0, steps, ns) = best;
+    let (all_inner, worst, j0, steps, ns) = best;
     if ns == 0 {
         // Unreachable: some alignment always completes its walk.
         fill_disc(mesh, v, a);
@@ -817,7 +868,7 @@ fn stitch_tube(mesh: &mut CellMesh, v: &[f64; 8], a: &[u8], b: &[u8]) {
             [b[bj(jb + 1)], b[bj(jb)], a[ai(ia)]]
         }
     };
-    let waist = worst <= 0.05 && (mesh.nv as usize) + ns <= MAX_VERTS;
+    let waist = (worst <= 0.05 || !all_inner) && (mesh.nv as usize) + ns <= MAX_VERTS;
     if !waist {
         let (mut ia, mut jb) = (0usize, 0usize);
         for &adv_a in &steps[..ns] {
@@ -869,7 +920,7 @@ fn stitch_tube(mesh: &mut CellMesh, v: &[f64; 8], a: &[u8], b: &[u8]) {
         .iter()
         .map(|t| orientation_quality(v, wpos(t[0]), wpos(t[1]), wpos(t[2])))
         .fold(f64::INFINITY, f64::min);
-    if waist_worst > worst {
+    if waist_worst > worst || !all_inner {
         for p in &wp[..ns] {
             mesh.push_vertex(Vertex::Interior(*p));
         }
