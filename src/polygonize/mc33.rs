@@ -30,10 +30,24 @@
 //! edge, so a mesher can key it by edge (e.g. by the pair of octree leaves)
 //! and share it with the neighbouring cells. Interior vertices
 //! [`Vertex::Interior`] are points in cell coordinates placed on `T = 0` by
-//! a few Newton steps; they are created only when a boundary loop cannot be
-//! fanned with triangles facing along `∇T`, and for the waist ring of a
-//! poorly stitched tube — both rare (17 interior vertices over the 120,120
-//! cells of the verification).
+//! a few Newton steps; they are created when a boundary loop cannot be
+//! triangulated with triangles facing along `∇T` and allowed chords, and
+//! for the waist ring of a tube (3,240 interior vertices over the 120,120
+//! cells of the verification, nearly all in the 430 tube cells).
+//!
+//! **Chords.** Every inner edge a cell draws is its own: no other cell can
+//! draw it, so with the face segments shared by the two cells of each face,
+//! every edge of the joined mesh has exactly two triangles. An inner edge
+//! between two vertices that share no face crosses the cell's interior and
+//! belongs to this cell alone. One that lies inside a face (the two
+//! vertices are on the two segments of an ambiguous face) could be drawn by
+//! the cell across that face as well — four triangles on one edge — so it
+//! is drawn only by the cell that has the face on its **high** side (the
+//! two cells see their common face from opposite sides). Discs take the
+//! best-oriented fan with allowed chords, else the best-oriented
+//! triangulation with allowed chords (dynamic programming over the loop),
+//! else a fan from an interior vertex; tubes take a stitch with allowed
+//! rungs, else a waist ring of interior vertices.
 //!
 //! The result is a fixed-capacity [`CellMesh`] (at most [`MAX_VERTS`]
 //! vertices and [`MAX_TRIS`] triangles, no allocation); a call costs about
@@ -54,12 +68,14 @@
 //!   consistent (every inner side is crossed once each way, the boundary runs
 //!   with the negative region on its right seen from outside the cell) and
 //!   every component faces along `∇T` as a whole. Each triangle of a disc
-//!   faces along `∇T` at its centroid (the fan apex is chosen for that, or an
-//!   interior vertex on `T = 0` is added); a tube's long triangles across a
-//!   narrow tunnel may not, locally: in the verification, 97 of 403,499
-//!   triangles, all in tubes (80 of the 430 tube cells). The stitch takes the
-//!   best-oriented of all walks, or a waist ring of interior vertices when
-//!   that is better still.
+//!   faces along `∇T` at its centroid (the fan apex, the triangulation or
+//!   the interior vertex is chosen for that); a tube's long triangles
+//!   across a narrow tunnel may not, locally: in the verification, 1,236 of
+//!   409,945 triangles, all in tubes (251 of the 430 tube cells: a tube
+//!   whose every stitch needs a rung inside a low face takes the waist ring
+//!   even when it is less well oriented, see "Chords"). The stitch takes the
+//!   best-oriented of the greedy walks (walks with allowed rungs first), or
+//!   a waist ring of interior vertices when that is better still.
 //! * No triangle repeats an index. Triangles may have zero area when a corner
 //!   value is exactly zero (several edge vertices then sit on that corner) or
 //!   when the cell itself is degenerate; a mesher that welds vertices by
@@ -718,13 +734,18 @@ fn orientation_quality(v: &[f64; 8], p: DVec3, q: DVec3, r: DVec3) -> f64 {
     n.dot(g)
 }
 
-/// Whether a chord between two vertices on faces `a` and `b` (bit masks,
-/// [`faces_of`]) crosses the cell's interior: they share no face. A chord
-/// inside a face could be drawn by the neighbouring cell too, whose
-/// triangles would then use the same edge (four triangles on one edge):
-/// triangulations draw their inner edges through the interior only.
-fn crosses_interior(a: u8, b: u8) -> bool {
-    a & b == 0
+/// Faces on the low side of their axis (`2 * axis`), a bit per face.
+const LOW_FACES: u8 = 0b01_0101;
+
+/// Whether a triangulation may draw a chord between two vertices on faces
+/// `a` and `b` (bit masks, [`faces_of`]). A chord that lies inside a face
+/// could be drawn by the cell on the other side of that face too, whose
+/// triangles would then use the same edge (four triangles on one edge).
+/// The two cells see their common face from opposite sides, so a chord
+/// inside a face is drawn only by the cell that has the face on its high
+/// side: the chord crosses the interior, or lies in a high face.
+fn chord_allowed(a: u8, b: u8) -> bool {
+    a & b & LOW_FACES == 0
 }
 
 fn fill_disc(mesh: &mut CellMesh, v: &[f64; 8], lp: &[u8]) {
@@ -739,13 +760,12 @@ fn fill_disc(mesh: &mut CellMesh, v: &[f64; 8], lp: &[u8]) {
             .unwrap_or(DVec3::ZERO)
     });
     // Best fan apex: maximise the worst orientation quality, among the
-    // apices whose chords all cross the cell's interior (see
-    // [`crosses_interior`]).
+    // apices whose chords are all allowed ([`chord_allowed`]).
     let faces: [u8; 12] =
         core::array::from_fn(|k| lp.get(k).map_or(0, |&i| faces_of(mesh.verts[i as usize])));
     let mut best = (f64::NEG_INFINITY, 0);
     for apex in 0..n {
-        if (2..n - 1).any(|i| !crosses_interior(faces[apex], faces[(apex + i) % n])) {
+        if (2..n - 1).any(|i| !chord_allowed(faces[apex], faces[(apex + i) % n])) {
             continue;
         }
         let mut worst = f64::INFINITY;
@@ -764,8 +784,54 @@ fn fill_disc(mesh: &mut CellMesh, v: &[f64; 8], lp: &[u8]) {
         }
         return;
     }
-    // Fan from an interior vertex on T = 0 near the loop's centroid.
-    let c = project(v, pos[..n].iter().copied().sum::<DVec3>() / n as f64);
+    // No fan will do: the best triangulation of the loop with allowed
+    // chords only, or a fan from an interior vertex on T = 0 near the
+    // loop's centroid, whichever faces along the gradient better.
+    let (worst, split) = best_triangulation(v, &pos, &faces, n);
+    // The interior vertex: near the centroid, at the middle of a chord that
+    // is not allowed, or next to one of its ends (the fans from there would
+    // draw it).
+    let fan_from = |c: DVec3| {
+        (0..n)
+            .map(|i| orientation_quality(v, c, pos[i], pos[(i + 1) % n]))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let centroid = project(v, pos[..n].iter().copied().sum::<DVec3>() / n as f64);
+    let (around, c) = (0..n)
+        .flat_map(|i| (i + 2..n).map(move |j| (i, j)))
+        .filter(|&(i, j)| !(i == 0 && j == n - 1) && !chord_allowed(faces[i], faces[j]))
+        .flat_map(|(i, j)| {
+            [
+                (pos[i] + pos[j]) * 0.5,
+                pos[i].lerp(centroid, 0.1),
+                pos[j].lerp(centroid, 0.1),
+            ]
+        })
+        .map(|c| {
+            let c = project(v, c);
+            (fan_from(c), c)
+        })
+        .fold((fan_from(centroid), centroid), |a, b| {
+            if b.0 > a.0 { b } else { a }
+        });
+    if worst > 0.05 || worst >= around {
+        let mut todo = [(0u8, 0u8); 12];
+        let mut top = 1;
+        todo[0] = (0, n as u8 - 1);
+        while top > 0 {
+            top -= 1;
+            let (i, j) = todo[top];
+            if j - i < 2 {
+                continue;
+            }
+            let k = split[i as usize][j as usize];
+            mesh.push_tri(lp[i as usize], lp[k as usize], lp[j as usize]);
+            todo[top] = (i, k);
+            todo[top + 1] = (k, j);
+            top += 2;
+        }
+        return;
+    }
     match mesh.push_vertex(Vertex::Interior(c)) {
         Some(ci) => {
             for i in 0..n {
@@ -778,6 +844,48 @@ fn fill_disc(mesh: &mut CellMesh, v: &[f64; 8], lp: &[u8]) {
             }
         }
     }
+}
+
+/// The triangulation of the loop `pos[..n]` (vertices in loop order, on
+/// the faces `faces`) that maximises its worst orientation quality, drawing
+/// only allowed chords ([`chord_allowed`]): the
+/// classical dynamic programme over sub-polygons `i..=j`. Returns the worst
+/// quality (−∞ when no such triangulation exists) and, per sub-polygon, its
+/// apex `k` (triangle `i k j`, in loop order as the loop's own edges).
+fn best_triangulation(
+    v: &[f64; 8],
+    pos: &[DVec3; 12],
+    faces: &[u8; 12],
+    n: usize,
+) -> (f64, [[u8; 12]; 12]) {
+    let allowed = |a: usize, b: usize| {
+        b == a + 1 || (a == 0 && b == n - 1) || chord_allowed(faces[a], faces[b])
+    };
+    let mut best = [[f64::NEG_INFINITY; 12]; 12];
+    let mut split = [[0u8; 12]; 12];
+    for i in 0..n - 1 {
+        best[i][i + 1] = f64::INFINITY;
+    }
+    for len in 2..n {
+        for i in 0..n - len {
+            let j = i + len;
+            if !allowed(i, j) {
+                continue;
+            }
+            for k in i + 1..j {
+                let sub = best[i][k].min(best[k][j]);
+                if sub <= best[i][j] {
+                    continue;
+                }
+                let q = sub.min(orientation_quality(v, pos[i], pos[k], pos[j]));
+                if q > best[i][j] {
+                    best[i][j] = q;
+                    split[i][j] = k as u8;
+                }
+            }
+        }
+    }
+    (best[0][n - 1], split)
 }
 
 /// Stitch a tube between two loops, both directed as boundaries of the tube
@@ -794,12 +902,12 @@ fn stitch_tube(mesh: &mut CellMesh, v: &[f64; 8], a: &[u8], b: &[u8]) {
         *p = x.position();
     }
     let pos = |i: u8| vpos[i as usize % MAX_VERTS];
-    // A rung drawn inside a face could be the neighbour's edge too
-    // ([`crosses_interior`]): walks without one are preferred, and a walk
+    // A rung drawn inside a low face could be the neighbour's edge too
+    // ([`chord_allowed`]): walks without one are preferred, and a walk
     // that needs one takes the waist ring instead.
     let inner = |x: u8, y: u8| {
         let f = |i: u8| mesh.verts[i as usize % MAX_VERTS];
-        crosses_interior(faces_of(f(x)), faces_of(f(y)))
+        chord_allowed(faces_of(f(x)), faces_of(f(y)))
     };
     let ai = |k: usize| k % m;
     // Walk: each step advances along a (true) or b (false); rungs are the
@@ -833,7 +941,13 @@ fn stitch_tube(mesh: &mut CellMesh, v: &[f64; 8], a: &[u8], b: &[u8]) {
             } else {
                 f64::NEG_INFINITY
             };
-            let adv_a = ok_a && (!ok_b || qa >= qb);
+            // A step to a rung that is not allowed only when the other
+            // step is impossible or also leads to one.
+            let (fa, fb) = (
+                ok_a && !inner(a[ai(ia + 1)], b[bj(jb)]),
+                ok_b && !inner(a[ai(ia)], b[bj(jb + 1)]),
+            );
+            let adv_a = ok_a && (!ok_b || (fa, -qa) <= (fb, -qb));
             worst = worst.min(if adv_a { qa } else { qb });
             steps[ns] = adv_a;
             ns += 1;
