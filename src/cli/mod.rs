@@ -92,9 +92,16 @@ pub struct MeshArgs {
     /// Uniform subdivision level to start from (at most --level).
     #[arg(long = "min-level", default_value_t = 3)]
     pub min_level: u8,
-    /// Geometry criterion: subdivide while the normals' spread exceeds K.
-    #[arg(long, default_value_t = 1.0)]
-    pub kmax: f64,
+    /// Geometry criterion: subdivide while the normals' spread exceeds K
+    /// [default: 1]. Given, it replaces the faithful default (the chord
+    /// criterion, see --coarse).
+    #[arg(long, value_name = "K")]
+    pub kmax: Option<f64>,
+    /// The adaptive minimum: only the topology and geometry (--kmax)
+    /// criteria, without the default chord criterion that makes --level
+    /// as faithful as a uniform mesher at that depth.
+    #[arg(long)]
+    pub coarse: bool,
     /// Smoothing passes (edge flips, then tangential relaxation onto the
     /// surface).
     #[arg(long, default_value_t = 3)]
@@ -393,10 +400,11 @@ fn mesh_command(
     use isoc::mesher::{self, MeshOptions, Stage};
     use isoc::octree::{OctreeOptions, TopologyTest};
 
-    if !(m.kmax.is_finite() && m.kmax >= 0.0) {
+    if let Some(k) = m.kmax
+        && !(k.is_finite() && k >= 0.0)
+    {
         return Err(Error::Usage(format!(
-            "--kmax {}: must be a number >= 0 (0 refines uniformly)",
-            m.kmax
+            "--kmax {k}: must be a number >= 0 (0 refines uniformly)"
         )));
     }
     if let Some(d) = m.tolerance
@@ -444,7 +452,7 @@ fn mesh_command(
         octree: OctreeOptions {
             max_level: level,
             min_level: m.min_level,
-            kmax: m.kmax,
+            kmax: m.kmax.unwrap_or(OctreeOptions::default().kmax),
             test: if m.certify {
                 TopologyTest::Certify
             } else {
@@ -452,6 +460,11 @@ fn mesh_command(
             },
             t: m.t,
             prune: !m.no_prune,
+            // Faithful `--level` unless a criterion of the user's replaces
+            // it (SPEC §2).
+            chord: OctreeOptions::default()
+                .chord
+                .filter(|_| !m.coarse && m.kmax.is_none() && m.tolerance.is_none()),
         },
         smooth: m.smooth,
         domain: None,

@@ -334,6 +334,9 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
     // lower): the adaptation on the surface, not the octree, meets the
     // tolerance. Later passes may refine the octree up to the cap.
     o.octree.max_level = cap.min(OctreeOptions::default().max_level);
+    // The tolerance, not the level, decides the size: the octree's chord
+    // criterion would only refine what the adaptation coarsens again.
+    o.octree.chord = None;
     // The adaptation relaxes the mesh itself, with its tolerance checked;
     // smoothing the extracted mesh first would be undone.
     o.smooth = 0;

@@ -18,7 +18,8 @@
 //!
 //! A move is **skipped** when it would flip or collapse an incident
 //! triangle (its normal would turn by more than 90° or its area fall below
-//! a fraction of the old), or when the projection finds no zero near the
+//! a fraction of the old), or fold one (its normal would disagree with the
+//! surface's normal at a corner where it agreed before), or when the projection finds no zero near the
 //! candidate. Vertices on a boundary, non-manifold or misoriented edge
 //! (open surfaces cut by the domain) never move. After the last pass the
 //! flips run once more. Smoothing never changes the vertex set or the
@@ -61,9 +62,11 @@ use crate::mesh::quality::{aspect, aspect_ratio};
 use crate::mesh::{Mesh, Star};
 use crate::roots::project_along;
 
-/// Whether moving vertex `v` to `p` keeps every incident triangle's
-/// orientation and a reasonable share of its area.
-fn move_is_safe(mesh: &Mesh, star: &Star, v: usize, p: DVec3) -> bool {
+/// Whether moving vertex `v` to `p`, where the surface's normal is `n`,
+/// keeps every incident triangle's orientation and a reasonable share of
+/// its area, and folds no triangle that was not folded: a triangle whose
+/// normal agreed with a corner's unit normal (`v`'s now `n`) still does.
+fn move_is_safe(mesh: &Mesh, star: &Star, v: usize, p: DVec3, n: DVec3) -> bool {
     star.of(v).iter().all(|&ti| {
         let t = mesh.triangles[ti as usize];
         let before = mesh.face_normal(t);
@@ -75,7 +78,15 @@ fn move_is_safe(mesh: &Mesh, star: &Star, v: usize, p: DVec3) -> bool {
             }
         });
         let after = (b - a).cross(c - a);
-        after.dot(before) > 0.0 && after.length() > 0.05 * before.length()
+        let unfolded = t.iter().all(|&i| {
+            let (old, new) = if i as usize == v {
+                (mesh.normals[v], n)
+            } else {
+                (mesh.normals[i as usize], mesh.normals[i as usize])
+            };
+            before.dot(old) <= 0.0 || after.dot(new) > 0.0
+        });
+        unfolded && after.dot(before) > 0.0 && after.length() > 0.05 * before.length()
     })
 }
 
@@ -233,7 +244,7 @@ pub fn smooth_keeping<E: Evaluator + ?Sized>(
                 })
                 .collect();
             for (v, p, g) in candidates {
-                if move_is_safe(mesh, &star, v as usize, p) {
+                if move_is_safe(mesh, &star, v as usize, p, g.normalize_or_zero()) {
                     mesh.positions[v as usize] = p;
                     // The tangent plane for the next pass: the normal at
                     // the relaxation target, a point within rounding of

@@ -7,6 +7,7 @@
 //! | topology (paper) | `(0,0,0) ∈ ∇F(B)` | subdivide; ambiguous at the last level |
 //! | topology (`certify`) | `0 ∈ Σ ∂ᵢF(B) ⊗ ∂ᵢF(B)` with the two factors independent | subdivide; ambiguous at the last level |
 //! | geometry | `Diam(∇F(B)/‖∇F(B)‖) > k_max` | subdivide (not a guarantee) |
+//! | chord (faithful `--level`) | estimated chord error of a mesh through the cell `> τ` ([`chord_error`]) | subdivide (not a guarantee) |
 //!
 //! *What each topology test guarantees.* The paper's test only certifies
 //! that `∇F` does not vanish on the cell, so the surface there is a smooth
@@ -164,4 +165,34 @@ pub(crate) fn normal_spread(grad: [Interval; 3]) -> f64 {
         widest = widest.max(hi - lo);
     }
     widest
+}
+
+/// An estimate of the chord error (distance from the surface to the
+/// triangles' centroids and edge midpoints) of a mesh through a cell, from
+/// point values: `F` and `∇F` at the centre `c`, and `F` at the cell's
+/// corners `p`. The remainder of the first-order expansion,
+/// `r = F(p) − F(c) − ∇F(c)·(p − c) ≈ ½ (p − c)ᵀ H (p − c)`, divided by
+/// `‖∇F(c)‖`, is how far the surface bends away from its tangent plane over
+/// the half diagonal; the dual cells' triangles span about a cell side, a
+/// chord whose sagitta is about a third of that. Infinite where the
+/// gradient vanishes or a value is not a number (the cell is then
+/// subdivided). A sample, not a bound: the criterion shapes the mesh, it
+/// guarantees nothing.
+pub(crate) fn chord_error(
+    fc: f64,
+    grad: [f64; 3],
+    c: [f64; 3],
+    corners: &[([f64; 3], f64)],
+) -> f64 {
+    let g2 = grad.iter().map(|g| g * g).sum::<f64>();
+    if !(g2 > 0.0 && g2.is_finite() && fc.is_finite()) {
+        return f64::INFINITY;
+    }
+    let bend = corners.iter().fold(0.0f64, |m, (p, fp)| {
+        let linear = fc + (0..3).map(|k| grad[k] * (p[k] - c[k])).sum::<f64>();
+        // NaN (an undefined corner) wins: `max` would drop it.
+        let r = (fp - linear).abs();
+        if r.is_nan() { f64::INFINITY } else { m.max(r) }
+    });
+    bend / g2.sqrt() / 3.0
 }

@@ -144,6 +144,13 @@ pub struct OctreeOptions {
     pub t: f64,
     /// Prune the program per subtree (see the module doc's "Pruning").
     pub prune: bool,
+    /// Faithful `--level` (SPEC §2): below the maximal level, subdivide a
+    /// cell that passes the other criteria while its estimated chord error
+    /// ([`criteria::chord_error`]) exceeds this many sides of a
+    /// maximal-level cell (the smallest side of Ω over `2^max_level`).
+    /// `None`: the geometry criterion `k_max` alone (the adaptive minimum,
+    /// `--coarse`).
+    pub chord: Option<f64>,
 }
 
 impl Default for OctreeOptions {
@@ -155,6 +162,63 @@ impl Default for OctreeOptions {
             test: TopologyTest::Paper,
             t: 0.0,
             prune: true,
+            chord: Some(DEFAULT_CHORD),
+        }
+    }
+}
+
+/// The default chord tolerance of [`OctreeOptions::chord`], in sides of a
+/// maximal-level cell (calibrated against a uniform mesher at that depth:
+/// `docs/faithful.md`).
+pub const DEFAULT_CHORD: f64 = 0.02;
+
+/// Subdivides, among `cells` (all at one level) evaluated by `f`, the ones
+/// whose verdict would make them surface leaves but whose estimated chord
+/// error exceeds `tau` (domain units): their geometry verdict is turned
+/// off. One point-gradient batch at the centres and one value batch at the
+/// corners of those cells.
+fn chord_test<E: Evaluator + ?Sized>(
+    f: &E,
+    cells: &[[Interval; 4]],
+    verdicts: &mut [criteria::Verdict],
+    tau: f64,
+    t: f64,
+) {
+    let open: Vec<usize> = (0..cells.len())
+        .filter(|&i| verdicts[i].geometry_ok)
+        .collect();
+    if open.is_empty() {
+        return;
+    }
+    let centres: Vec<[f64; 3]> = open
+        .iter()
+        .map(|&i| std::array::from_fn(|k| 0.5 * (cells[i][k].lo + cells[i][k].hi)))
+        .collect();
+    let mut at_centres = vec![(0.0, [0.0; 3]); open.len()];
+    f.point_grad_batch(&centres, t, &mut at_centres);
+    let corner = |i: usize, c: usize| -> [f64; 3] {
+        std::array::from_fn(|k| {
+            if (c >> k) & 1 == 0 {
+                cells[i][k].lo
+            } else {
+                cells[i][k].hi
+            }
+        })
+    };
+    let corners: Vec<[f64; 3]> = open
+        .iter()
+        .flat_map(|&i| (0..8).map(move |c| corner(i, c)))
+        .collect();
+    let col = |k: usize| corners.iter().map(|p| p[k]).collect::<Vec<f64>>();
+    let mut values = vec![0.0; corners.len()];
+    f.point_batch(&col(0), &col(1), &col(2), t, &mut values);
+    for (n, &i) in open.iter().enumerate() {
+        let (fc, g) = at_centres[n];
+        let samples: Vec<([f64; 3], f64)> = (0..8)
+            .map(|c| (corners[8 * n + c], values[8 * n + c]))
+            .collect();
+        if criteria::chord_error(fc, g, centres[n], &samples) > tau {
+            verdicts[i].geometry_ok = false;
         }
     }
 }
@@ -670,6 +734,12 @@ impl Octree {
             open: true,
         };
         let store = AtomicU64::new(0);
+        // The chord tolerance in domain units, applied from the minimal
+        // level up to (not at) the maximal one.
+        let tau = opts.chord.map(|c| {
+            let side = (0..3).map(|k| tree.size[k]).fold(f64::INFINITY, f64::min);
+            c * side / (1u64 << max_level) as f64
+        });
         let mut leaf_live = 0u64;
         let mut frontier: Vec<(u32, Tape)> = vec![(0, root_tape)];
         // Ambiguous leaves at the maximal level, with their tapes, for the
@@ -700,6 +770,7 @@ impl Octree {
                 }
             };
             let long = budget.spend(frontier.iter().map(|(_, t)| t.long_cost()).sum());
+            let chord_level = level >= min_level && level < max_level;
             let tree_ref = &tree;
             let judged: Vec<(Option<Leaf>, Tape)> = frontier
                 .par_chunks(BATCH)
@@ -720,7 +791,11 @@ impl Octree {
                             end += 1;
                         }
                         let verdicts = tape.with(f, long, |e, interpreted| {
-                            examine(e, &cells[start..end], opts, interpreted)
+                            let mut v = examine(e, &cells[start..end], opts, interpreted);
+                            if let Some(tau) = tau.filter(|_| chord_level) {
+                                chord_test(e, &cells[start..end], &mut v, tau, opts.t);
+                            }
+                            v
                         });
                         for (k, v) in verdicts.iter().enumerate() {
                             let node = &tree_ref.nodes[chunk[start + k].0 as usize];

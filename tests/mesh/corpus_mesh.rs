@@ -32,6 +32,7 @@ fn run(s: &Surface, level: u8, kmax: f64, test: TopologyTest) -> MeshReport {
             test,
             t: 0.0,
             prune: true,
+            chord: None,
         },
         smooth: 0,
         domain: None,

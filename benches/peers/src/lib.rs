@@ -637,6 +637,9 @@ pub fn isoc_mesh(
             test: isoc::octree::TopologyTest::Paper,
             t: 0.0,
             prune: true,
+            // The adaptive minimum (`--coarse`): the tables below compare
+            // the criteria of the paper; `faithful_table` the defaults.
+            chord: None,
         },
         smooth,
         domain: None,
@@ -794,6 +797,34 @@ pub fn fidget_points(m: &fidget::mesh::Mesh) -> Vec<[f64; 3]> {
 
 pub fn isoc_points(m: &isoc::mesh::Mesh) -> Vec<[f64; 3]> {
     m.positions.iter().map(|v| [v.x, v.y, v.z]).collect()
+}
+
+/// isoc's mesher at `level` with `isoc mesh`'s defaults (faithful
+/// `--level`: the chord criterion, smoothing, creases) on the surface's own
+/// domain.
+pub fn isoc_mesh_default(
+    case: &Case,
+    level: u8,
+) -> (isoc::mesh::Mesh, isoc::mesher::MeshReport) {
+    let mut opts = isoc::mesher::MeshOptions::default();
+    opts.octree.max_level = level;
+    isoc::mesher::mesh(&case.surface, &opts, &|_| {})
+}
+
+/// Triangle centroids and edge midpoints: where the chord error of a mesh
+/// shows (issue 21's chord measure).
+pub fn chord_points(pts: &[[f64; 3]], tris: &[[usize; 3]]) -> Vec<[f64; 3]> {
+    let mid = |a: usize, b: usize| -> [f64; 3] { std::array::from_fn(|k| 0.5 * (pts[a][k] + pts[b][k])) };
+    let mut edges: Vec<(usize, usize)> = tris
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .map(|(a, b)| (a.min(b), a.max(b)))
+        .collect();
+    edges.sort_unstable();
+    edges.dedup();
+    let mut out = centroids(pts, tris);
+    out.extend(edges.into_iter().map(|(a, b)| mid(a, b)));
+    out
 }
 
 /// Triangle centroids: where the chord error of a coarse mesh shows.

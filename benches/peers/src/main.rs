@@ -42,6 +42,9 @@ struct Args {
     smooth: usize,
     /// Only the tolerance table (isoc `--tolerance` against Fidget depth 8).
     tolerance: bool,
+    /// Only the faithful-defaults table (`isoc mesh --level L` against
+    /// Fidget depth L, at each of `levels`).
+    faithful: bool,
     only: Vec<String>,
 }
 
@@ -52,6 +55,7 @@ fn args() -> Args {
         levels: vec![6, 7],
         smooth: 0,
         tolerance: false,
+        faithful: false,
         only: vec![],
     };
     let mut it = std::env::args().skip(1);
@@ -60,6 +64,7 @@ fn args() -> Args {
             "--quick" => a.quick = true,
             "--no-mesh" => a.mesh = false,
             "--tolerance" => a.tolerance = true,
+            "--faithful" => a.faithful = true,
             "--levels" => {
                 a.levels = it
                     .next()
@@ -71,7 +76,7 @@ fn args() -> Args {
             "--smooth" => a.smooth = it.next().and_then(|n| n.parse().ok()).expect("--smooth 3"),
             "-h" | "--help" => {
                 println!(
-                    "usage: isoc-peers [--quick] [--no-mesh] [--levels 6,7] [--smooth N] [--tolerance] [formula…]"
+                    "usage: isoc-peers [--quick] [--no-mesh] [--levels 6,7] [--smooth N] [--tolerance] [--faithful] [formula…]"
                 );
                 std::process::exit(0);
             }
@@ -112,6 +117,10 @@ fn main() {
     let a = args();
     if a.tolerance {
         tolerance_table(&a);
+        return;
+    }
+    if a.faithful {
+        faithful_table(&a);
         return;
     }
     let names: Vec<&str> = CORPUS
@@ -361,6 +370,80 @@ fn tolerance_table(a: &Args) {
             topo_cell(ftop.components, ftop.genus, ftop.watertight, c.expect),
             if tol.met { "yes" } else { "no" },
         );
+    }
+}
+
+/// `isoc mesh FILE --level L` with every default (issue 21's faithful
+/// `--level`) against Fidget at depth L, on the corpus formulas and models
+/// or the named surfaces, at each of `--levels`.
+fn faithful_table(a: &Args) {
+    let names: Vec<&str> = if a.only.is_empty() {
+        CORPUS.iter().chain(&MODELS).copied().collect()
+    } else {
+        a.only.iter().map(String::as_str).collect()
+    };
+    let reps = if a.quick { 1 } else { 3 };
+    println!(
+        "## Faithful `--level` (wall time, median of {reps} runs, {} rayon threads; ratio = isoc / Fidget)\n",
+        rayon_threads()
+    );
+    println!(
+        "isoc: `mesh --level L`, every default. Fidget: Manifold Dual Contouring at depth L. Chord error: \
+         |f| / ‖∇f‖ at every triangle centroid and edge midpoint, 99.9th percentile, in cells of depth L \
+         (largest domain side / 2^L). Targets: chord ratio ≤ 1, triangles ≤ 0.6, time ≤ 1.\n"
+    );
+    println!(
+        "| surface | L | isoc tris | Fidget tris | **tris ratio** | isoc ms | Fidget ms | **time ratio** \
+         | isoc chord p99.9 | Fidget chord p99.9 | **chord ratio** | isoc topology | Fidget topology |"
+    );
+    println!("|{}", "---|".repeat(13));
+    for name in names {
+        let c = Case::load(name).unwrap_or_else(|e| panic!("{e}"));
+        for &level in &a.levels {
+            let mut iso = None;
+            let ti = median(
+                || {
+                    let r = isoc_mesh_default(&c, level);
+                    let n = r.0.triangles.len() as f64;
+                    iso = Some(r);
+                    n
+                },
+                reps,
+                0.0,
+            );
+            let mut fid = None;
+            let tf = median(
+                || {
+                    let m = fidget_mesh(&c, level);
+                    let n = m.triangles.len() as f64;
+                    fid = Some(m);
+                    n
+                },
+                reps,
+                0.0,
+            );
+            let (im, rep) = iso.unwrap();
+            let fm = fid.unwrap();
+            let (ip, fp) = (isoc_points(&im), fidget_points(&fm));
+            let (it, ft) = (isoc_triangles(&im), fidget_triangles(&fm));
+            let (_, icp, _) = vertex_distance(&c, &chord_points(&ip, &it), level);
+            let (_, fcp, _) = vertex_distance(&c, &chord_points(&fp, &ft), level);
+            let ftop = topology(&ft);
+            let tr = &rep.topology;
+            let igenus: Option<i64> = tr.genus.iter().copied().sum();
+            println!(
+                "| {name} | {level} | {} | {} | **{:.2}** | {:.1} | {:.1} | **{:.2}** | {icp:.3} | {fcp:.3} | **{:.2}** | {} | {} |",
+                it.len(),
+                ft.len(),
+                it.len() as f64 / ft.len().max(1) as f64,
+                ti * 1e3,
+                tf * 1e3,
+                ti / tf,
+                icp / fcp,
+                topo_cell(tr.components, igenus, tr.watertight, c.expect),
+                topo_cell(ftop.components, ftop.genus, ftop.watertight, c.expect),
+            );
+        }
     }
 }
 
