@@ -32,7 +32,7 @@
 
 use glam::DVec3;
 
-use crate::octree::{Node, Octree};
+use crate::octree::{Node, Octant, Octree};
 
 /// A dual-cell corner: a leaf, or a ghost of a leaf mirrored across the
 /// domain's boundary. `mirror` holds two bits per axis `k` (bits `2k`,
@@ -100,14 +100,12 @@ impl<F: FnMut(DualCell)> Walker<'_, F> {
     /// Child `c` of `n`, or `n` itself when it is a leaf. A ghost's
     /// children mirror the real node's: flipped along the mirrored axes.
     fn child(&self, n: Corner, c: usize) -> Corner {
-        let node = &self.nodes[n.node as usize];
-        if node.is_leaf() {
-            n
-        } else {
-            Corner {
-                node: node.first_child + (c ^ n.axes()) as u32,
+        match self.nodes[n.node as usize].child(Octant((c ^ n.axes()) as u8)) {
+            Some(node) => Corner {
+                node,
                 mirror: n.mirror,
-            }
+            },
+            None => n,
         }
     }
 

@@ -146,6 +146,13 @@ impl Interval {
         self.lo > self.hi
     }
 
+    /// True when the interval proves its value is not zero: both bounds
+    /// on one side of 0. Written so that a NaN bound never excludes zero
+    /// (a cell is never discarded, nor a gradient certified, on a NaN).
+    pub fn excludes_zero(&self) -> bool {
+        self.lo > 0.0 || self.hi < 0.0
+    }
+
     /// True when `x` lies in the interval. NaN is in no interval; `+∞` is
     /// "in" an interval unbounded above, `-∞` in one unbounded below.
     pub fn contains(&self, x: f64) -> bool {

@@ -46,10 +46,6 @@ pub struct Verdict {
     pub geometry_ok: bool,
 }
 
-fn contains_zero(i: Interval) -> bool {
-    i.lo <= 0.0 && 0.0 <= i.hi
-}
-
 /// The mean-value form of `F` over a cell (Moore 1966; the centred form
 /// of interval analysis): `f(B) ⊆ F(c) + Σᵢ ∂ᵢF(B)·(Bᵢ − cᵢ)` for `F`
 /// differentiable on `B`, with `F(c)` the interval value at the centre.
@@ -86,11 +82,11 @@ pub(crate) fn judge(
     test: TopologyTest,
     kmax: f64,
 ) -> Verdict {
-    // Written so that a NaN bound (which a sound kernel never returns) can
-    // never discard a cell.
-    let excludes_zero = |i: Interval| i.lo > 0.0 || i.hi < 0.0;
+    // A NaN bound (which a sound kernel never returns) never discards a
+    // cell nor certifies one ([`Interval::excludes_zero`]).
     let empty = value_defined
-        && (excludes_zero(g.value) || (g.defined && mean_value.is_some_and(excludes_zero)));
+        && (g.value.excludes_zero()
+            || (g.defined && mean_value.is_some_and(|m| m.excludes_zero())));
     if empty || !value_defined {
         return Verdict {
             empty,
@@ -99,7 +95,7 @@ pub(crate) fn judge(
         };
     }
     let topology_ok = match test {
-        TopologyTest::Paper => !g.grad.iter().all(|c| contains_zero(*c)),
+        TopologyTest::Paper => g.grad.iter().any(|c| c.excludes_zero()),
         TopologyTest::Certify => {
             let mut dot = Interval { lo: 0.0, hi: 0.0 };
             for c in g.grad {
@@ -107,7 +103,7 @@ pub(crate) fn judge(
                 let (p, _) = crate::ir::semantics::enclose_binary(BinOp::Mul, c, c);
                 dot = crate::ir::semantics::enclose_binary(BinOp::Add, dot, p).0;
             }
-            !contains_zero(dot)
+            dot.excludes_zero()
         }
     };
     let geometry_ok = topology_ok && normal_spread(g.grad) <= kmax;
@@ -127,12 +123,12 @@ pub(crate) fn judge(
 /// Infinite when the box contains the zero vector. (Not a guarantee, so
 /// round-to-nearest is fine here.)
 pub(crate) fn normal_spread(grad: [Interval; 3]) -> f64 {
-    if grad.iter().all(|c| contains_zero(*c)) {
+    if grad.iter().all(|c| c.contains(0.0)) {
         return f64::INFINITY;
     }
     // Smallest and largest squares of each component over its interval.
     let sq_min = |c: Interval| {
-        if contains_zero(c) {
+        if c.contains(0.0) {
             0.0
         } else {
             (c.lo * c.lo).min(c.hi * c.hi)
@@ -168,31 +164,31 @@ pub(crate) fn normal_spread(grad: [Interval; 3]) -> f64 {
 }
 
 /// An estimate of the chord error (distance from the surface to the
-/// triangles' centroids and edge midpoints) of a mesh through a cell, from
-/// point values: `F` and `∇F` at the centre `c`, and `F` at the cell's
-/// corners `p`. The remainder of the first-order expansion,
-/// `r = F(p) − F(c) − ∇F(c)·(p − c) ≈ ½ (p − c)ᵀ H (p − c)`, divided by
-/// `‖∇F(c)‖`, is how far the surface bends away from its tangent plane over
-/// the half diagonal; the dual cells' triangles span about a cell side, a
-/// chord whose sagitta is about a third of that. Infinite where the
-/// gradient vanishes or a value is not a number (the cell is then
-/// subdivided). A sample, not a bound: the criterion shapes the mesh, it
-/// guarantees nothing.
-pub(crate) fn chord_error(
-    fc: f64,
-    grad: [f64; 3],
-    c: [f64; 3],
-    corners: &[([f64; 3], f64)],
-) -> f64 {
-    let g2 = grad.iter().map(|g| g * g).sum::<f64>();
-    if !(g2 > 0.0 && g2.is_finite() && fc.is_finite()) {
-        return f64::INFINITY;
+/// triangles' centroids and edge midpoints) of a mesh through a cell of
+/// side `side`, from the gradients of `F` at the cell's corners: where the
+/// unit normals turn by an angle `θ` across the cell, the surface is
+/// curved with radius about `span / θ`, and a chord of length `s` stands
+/// `s² / 8R = s·θ / 8` off it; the dual cells' triangles span about a side
+/// (`s = side`). Unit normals do not change when `F` is replaced by `φ(F)`
+/// with `φ` monotone (`F³` for `F`, a distance for its square), so neither
+/// does the estimate. Infinite where a gradient vanishes or is not a
+/// number (the cell is then subdivided). A sample, not a bound: the
+/// criterion shapes the mesh, it guarantees nothing.
+pub(crate) fn chord_error(side: f64, grads: &[[f64; 3]]) -> f64 {
+    let mut unit = [[0.0; 3]; 8];
+    for (u, g) in unit.iter_mut().zip(grads) {
+        let n = g.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if !(n > 0.0 && n.is_finite()) {
+            return f64::INFINITY;
+        }
+        *u = g.map(|x| x / n);
     }
-    let bend = corners.iter().fold(0.0f64, |m, (p, fp)| {
-        let linear = fc + (0..3).map(|k| grad[k] * (p[k] - c[k])).sum::<f64>();
-        // NaN (an undefined corner) wins: `max` would drop it.
-        let r = (fp - linear).abs();
-        if r.is_nan() { f64::INFINITY } else { m.max(r) }
-    });
-    bend / g2.sqrt() / 3.0
+    let k = grads.len().min(8);
+    let mut least = 1.0f64;
+    for i in 0..k {
+        for j in 0..i {
+            least = least.min((0..3).map(|c| unit[i][c] * unit[j][c]).sum());
+        }
+    }
+    side * least.clamp(-1.0, 1.0).acos() / 8.0
 }

@@ -28,7 +28,7 @@
 
 use glam::DVec3;
 
-use super::Octree;
+use super::{Octant, Octree};
 use crate::eval::{self, Evaluator, GradEval, Reference};
 use crate::interval::{DecInterval, Interval};
 use crate::ir::Program;
@@ -37,7 +37,8 @@ use crate::ir::Program;
 pub struct Field<'a, E: ?Sized> {
     tree: &'a Octree,
     f: &'a E,
-    /// `first_child` of every node, packed (the descent's only read).
+    /// The first child of every node (0 for a leaf: the root is nobody's
+    /// child), packed (the descent's only read).
     children: Vec<u32>,
     /// Deepest level of a node, and `2^depth`.
     depth: u8,
@@ -51,7 +52,10 @@ impl Octree {
             (Vec::new(), 0)
         } else {
             (
-                self.nodes.iter().map(|n| n.first_child).collect(),
+                self.nodes
+                    .iter()
+                    .map(|n| n.child(Octant(0)).unwrap_or(0))
+                    .collect(),
                 self.nodes.iter().map(|n| n.level).max().unwrap_or(0),
             )
         };
@@ -90,9 +94,8 @@ impl<E: Evaluator + ?Sized> Field<'_, E> {
         let mut i = 0usize;
         let mut level = 0u8;
         while self.children[i] != 0 {
-            let shift = self.depth - level - 1;
-            let c = (0..3).fold(0, |c, k| c | ((((ijk[k] >> shift) & 1) as usize) << k));
-            i = self.children[i] as usize + c;
+            let c = Octant::of_cell(ijk, self.depth - level - 1);
+            i = self.children[i] as usize + usize::from(c.0);
             level += 1;
         }
         // Far from the leaf's faces (in units of the deepest cells) the

@@ -20,10 +20,12 @@
 //!
 //! # Layout
 //!
-//! Nodes live in one `Vec<Node>`, root first; the 8 children of a node are
-//! consecutive, child `c` (bits `x = c&1, y = (c>>1)&1, z = (c>>2)&1`) at
-//! `first_child + c`. The tree is built breadth-first, one level at a time;
-//! each level's cells are evaluated in parallel (`rayon`).
+//! Nodes live in one `Vec<Node>`, root first; a node is a [`Kind::Branch`]
+//! or a [`Kind::Leaf`]. The 8 children of a branch are consecutive, child
+//! [`Octant`] `o` (bit `k`: the high half along axis `k`) at
+//! `first_child + o`. The tree is built breadth-first, one level at a time
+//! (`Builder`: judge a level, grow the next, then the proof search); each
+//! level's cells are evaluated in parallel (`rayon`).
 //!
 //! # Evaluation
 //!
@@ -73,6 +75,7 @@
 
 pub(crate) mod criteria;
 pub mod field;
+pub mod octant;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -86,6 +89,7 @@ use crate::interval::Interval;
 use crate::ir::Program;
 pub use criteria::TopologyTest;
 pub use field::Field;
+pub use octant::Octant;
 
 /// Cells to subdivide whatever the criteria say
 /// ([`Octree::build_refining`]), by level and integer position.
@@ -103,25 +107,61 @@ pub enum Leaf {
     Ambiguous,
 }
 
+/// What a node is: subdivided, or a leaf and how it ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// Subdivided: its 8 children are consecutive from `first_child`, in
+    /// [`Octant`] order.
+    Branch {
+        /// Index of the first child.
+        first_child: u32,
+    },
+    /// A leaf. (While the tree is built, a node not judged yet is an
+    /// ambiguous leaf: never discarded, never guaranteed.)
+    Leaf(Leaf),
+}
+
 /// One octree node. See the module doc for the layout.
 #[derive(Clone, Copy, Debug)]
 pub struct Node {
-    /// Index of the first of the 8 children, or 0 for a leaf (the root is
-    /// never anybody's child).
-    pub first_child: u32,
+    /// Subdivided or a leaf.
+    pub kind: Kind,
     /// Depth in the tree: 0 for the root (Ω), `l` for a cell of side
     /// `size / 2^l`.
     pub level: u8,
     /// Integer position of the cell in the level's grid, each in `[0, 2^level)`.
     pub ijk: [u32; 3],
-    /// For leaves, how they ended; `None` for internal nodes.
-    pub leaf: Option<Leaf>,
 }
 
 impl Node {
+    /// A node not judged yet (see [`Kind::Leaf`]).
+    fn open(level: u8, ijk: [u32; 3]) -> Node {
+        Node {
+            kind: Kind::Leaf(Leaf::Ambiguous),
+            level,
+            ijk,
+        }
+    }
+
     /// Whether the node has no children.
     pub fn is_leaf(&self) -> bool {
-        self.first_child == 0
+        matches!(self.kind, Kind::Leaf(_))
+    }
+
+    /// How a leaf ended; `None` for a subdivided node.
+    pub fn leaf(&self) -> Option<Leaf> {
+        match self.kind {
+            Kind::Leaf(l) => Some(l),
+            Kind::Branch { .. } => None,
+        }
+    }
+
+    /// Index of child `o`, if the node is subdivided.
+    pub fn child(&self, o: Octant) -> Option<u32> {
+        match self.kind {
+            Kind::Branch { first_child } => Some(first_child + u32::from(o.0)),
+            Kind::Leaf(_) => None,
+        }
     }
 }
 
@@ -170,13 +210,13 @@ impl Default for OctreeOptions {
 /// The default chord tolerance of [`OctreeOptions::chord`], in sides of a
 /// maximal-level cell (calibrated against a uniform mesher at that depth:
 /// `docs/faithful.md`).
-pub const DEFAULT_CHORD: f64 = 0.02;
+pub const DEFAULT_CHORD: f64 = 0.03;
 
 /// Subdivides, among `cells` (all at one level) evaluated by `f`, the ones
 /// whose verdict would make them surface leaves but whose estimated chord
-/// error exceeds `tau` (domain units): their geometry verdict is turned
-/// off. One point-gradient batch at the centres and one value batch at the
-/// corners of those cells.
+/// error ([`criteria::chord_error`]) exceeds `tau` (domain units): their
+/// geometry verdict is turned off. One point-gradient batch at the corners
+/// of those cells.
 fn chord_test<E: Evaluator + ?Sized>(
     f: &E,
     cells: &[[Interval; 4]],
@@ -190,34 +230,18 @@ fn chord_test<E: Evaluator + ?Sized>(
     if open.is_empty() {
         return;
     }
-    let centres: Vec<[f64; 3]> = open
-        .iter()
-        .map(|&i| std::array::from_fn(|k| 0.5 * (cells[i][k].lo + cells[i][k].hi)))
-        .collect();
-    let mut at_centres = vec![(0.0, [0.0; 3]); open.len()];
-    f.point_grad_batch(&centres, t, &mut at_centres);
-    let corner = |i: usize, c: usize| -> [f64; 3] {
-        std::array::from_fn(|k| {
-            if (c >> k) & 1 == 0 {
-                cells[i][k].lo
-            } else {
-                cells[i][k].hi
-            }
-        })
-    };
+    let lo = |i: usize| DVec3::new(cells[i][0].lo, cells[i][1].lo, cells[i][2].lo);
+    let hi = |i: usize| DVec3::new(cells[i][0].hi, cells[i][1].hi, cells[i][2].hi);
     let corners: Vec<[f64; 3]> = open
         .iter()
-        .flat_map(|&i| (0..8).map(move |c| corner(i, c)))
+        .flat_map(|&i| Octant::ALL.map(|o| o.pick(lo(i), hi(i)).to_array()))
         .collect();
-    let col = |k: usize| corners.iter().map(|p| p[k]).collect::<Vec<f64>>();
-    let mut values = vec![0.0; corners.len()];
-    f.point_batch(&col(0), &col(1), &col(2), t, &mut values);
+    let mut at = vec![(0.0, [0.0; 3]); corners.len()];
+    f.point_grad_batch(&corners, t, &mut at);
     for (n, &i) in open.iter().enumerate() {
-        let (fc, g) = at_centres[n];
-        let samples: Vec<([f64; 3], f64)> = (0..8)
-            .map(|c| (corners[8 * n + c], values[8 * n + c]))
-            .collect();
-        if criteria::chord_error(fc, g, centres[n], &samples) > tau {
+        let grads: Vec<[f64; 3]> = at[8 * n..8 * n + 8].iter().map(|(_, g)| *g).collect();
+        let side = (hi(i) - lo(i)).min_element();
+        if criteria::chord_error(side, &grads) > tau {
             verdicts[i].geometry_ok = false;
         }
     }
@@ -291,7 +315,7 @@ fn examine<E: Evaluator + ?Sized>(
     }
     let mut values = vec![WHOLE; cells.len()];
     f.interval_batch(cells, &mut values);
-    let excluded = |v: &crate::interval::DecInterval| v.defined && (v.iv.lo > 0.0 || v.iv.hi < 0.0);
+    let excluded = |v: &crate::interval::DecInterval| v.defined && v.iv.excludes_zero();
     let open: Vec<[Interval; 4]> = cells
         .iter()
         .zip(&values)
@@ -593,7 +617,7 @@ fn empty<E: Evaluator + ?Sized>(
     if !r.defined {
         return false;
     }
-    if r.iv.lo > 0.0 || r.iv.hi < 0.0 {
+    if r.iv.excludes_zero() {
         return true;
     }
     with_gradient && examine(f, &[cell], opts, false)[0].empty
@@ -619,23 +643,12 @@ fn proves_empty<E: Evaluator + ?Sized>(
         return false;
     }
     let m = (a + b) * 0.5;
-    let child = |c: u32| {
-        let pick = |k: usize, lo: f64, mid: f64, hi: f64| {
-            if (c >> k) & 1 == 0 {
-                (lo, mid)
-            } else {
-                (mid, hi)
-            }
-        };
-        let (x0, x1) = pick(0, a.x, m.x, b.x);
-        let (y0, y1) = pick(1, a.y, m.y, b.y);
-        let (z0, z1) = pick(2, a.z, m.z, b.z);
-        (DVec3::new(x0, y0, z0), DVec3::new(x1, y1, z1))
-    };
+    let child = |o: Octant| o.sub_box(a, m, b);
     // Every child must be proved empty; the one whose centre value is
     // nearest 0 is the likeliest to fail, so it goes first (the answer
     // does not depend on the order, only the work).
-    let mut order: Vec<(f64, u32)> = (0..8u32)
+    let mut order: Vec<(f64, Octant)> = Octant::ALL
+        .into_iter()
         .map(|c| {
             let (lo, hi) = child(c);
             let p = (lo + hi) * 0.5;
@@ -650,6 +663,241 @@ fn proves_empty<E: Evaluator + ?Sized>(
     })
 }
 
+/// One [`Octree::build_refining`] in progress: the tree so far, and what
+/// the evaluation carries from one level to the next (the interpretation
+/// budget, the pruned programs' store, the ambiguous leaves for the proof
+/// search).
+struct Builder<'a, E: ?Sized> {
+    f: &'a E,
+    opts: &'a OctreeOptions,
+    refine: &'a Refine,
+    tree: Octree,
+    max_level: u8,
+    min_level: u8,
+    /// The full program's length when pruning is on, else 0.
+    full_len: usize,
+    budget: Budget,
+    /// Instructions of the live pruned programs (see `STORE_LIMIT`).
+    store: AtomicU64,
+    /// Of which the leaves' (kept to the end).
+    leaf_live: u64,
+    /// The chord tolerance ([`OctreeOptions::chord`]) in domain units.
+    tau: Option<f64>,
+    /// Ambiguous leaves at the maximal level, with their tapes, for the
+    /// proof search.
+    ambiguous: Vec<(u32, Tape)>,
+}
+
+impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
+    /// The builder of a tree that is only its root, and the root's tape.
+    fn new(f: &'a E, domain: Bounds, opts: &'a OctreeOptions, refine: &'a Refine) -> (Self, Tape) {
+        let max_level = opts.max_level.min(MAX_LEVEL);
+        let tree = Octree {
+            nodes: vec![Node::open(0, [0; 3])],
+            lo: DVec3::from_array(domain.lo),
+            size: DVec3::from_array(domain.hi) - DVec3::from_array(domain.lo),
+            stats: OctreeStats::default(),
+            tapes: Vec::new(),
+        };
+        let full = f.program().filter(|p| opts.prune && prune::has_choices(p));
+        let full_len = full.map_or(0, |p| p.insts.len());
+        let root = Tape {
+            program: full.map(|p| Arc::new(Reference(p.clone()))),
+            interpret: false,
+            skip: false,
+        };
+        // The chord tolerance in domain units: a share of the smallest
+        // side of a maximal-level cell.
+        let tau = opts.chord.map(|c| {
+            let side = (0..3).map(|k| tree.size[k]).fold(f64::INFINITY, f64::min);
+            c * side / (1u64 << max_level) as f64
+        });
+        let b = Builder {
+            f,
+            opts,
+            refine,
+            tree,
+            max_level,
+            min_level: opts.min_level.min(max_level),
+            full_len,
+            budget: Budget {
+                left: INTERPRET_BUDGET * full_len as u64,
+                open: true,
+            },
+            store: AtomicU64::new(0),
+            leaf_live: 0,
+            tau,
+            ambiguous: Vec::new(),
+        };
+        (b, root)
+    }
+
+    /// How a cell of `level` with verdict `v` ends (`None`: subdivided);
+    /// `forced` cells are subdivided below the maximal level whatever the
+    /// criteria.
+    fn fate(&self, v: &criteria::Verdict, forced: bool, level: u8) -> Option<Leaf> {
+        if forced && level < self.max_level {
+            None
+        } else if v.empty {
+            Some(Leaf::Empty)
+        } else if level < self.min_level {
+            None
+        } else if level == self.max_level {
+            Some(if v.topology_ok {
+                Leaf::Surface
+            } else {
+                Leaf::Ambiguous
+            })
+        } else if v.topology_ok && v.geometry_ok {
+            Some(Leaf::Surface)
+        } else {
+            None
+        }
+    }
+
+    /// The fate of every cell of `frontier` (all at `level`), and the tape
+    /// each one keeps (a leaf) or hands its children (a subdivided cell):
+    /// chunks of `BATCH` cells in parallel, each run of cells with the same
+    /// tape evaluated together.
+    fn judge_level(&mut self, frontier: &[(u32, Tape)], level: u8) -> Vec<(Option<Leaf>, Tape)>
+    where
+        E: Sync,
+    {
+        let long = self
+            .budget
+            .spend(frontier.iter().map(|(_, t)| t.long_cost()).sum());
+        let this = &*self;
+        frontier
+            .par_chunks(BATCH)
+            .flat_map_iter(|chunk| this.judge_chunk(chunk, level, long))
+            .collect()
+    }
+
+    /// [`Builder::judge_level`] on one chunk.
+    fn judge_chunk(
+        &self,
+        chunk: &[(u32, Tape)],
+        level: u8,
+        long: bool,
+    ) -> Vec<(Option<Leaf>, Tape)> {
+        let (opts, tree) = (self.opts, &self.tree);
+        let chord_level = level >= self.min_level && level < self.max_level;
+        let cells: Vec<[Interval; 4]> = chunk
+            .iter()
+            .map(|(i, _)| {
+                let (a, b) = tree.cell_box(&tree.nodes[*i as usize]);
+                cell_input(a, b, opts.t)
+            })
+            .collect();
+        let mut out = Vec::with_capacity(chunk.len());
+        let mut start = 0;
+        while start < chunk.len() {
+            let tape = &chunk[start].1;
+            let mut end = start + 1;
+            while end < chunk.len() && chunk[end].1.same(tape) {
+                end += 1;
+            }
+            let verdicts = tape.with(self.f, long, |e, interpreted| {
+                let mut v = examine(e, &cells[start..end], opts, interpreted);
+                if let Some(tau) = self.tau.filter(|_| chord_level) {
+                    chord_test(e, &cells[start..end], &mut v, tau, opts.t);
+                }
+                v
+            });
+            for (k, v) in verdicts.iter().enumerate() {
+                let node = &tree.nodes[chunk[start + k].0 as usize];
+                let forced = self.refine.contains(&(node.level, node.ijk));
+                let leaf = self.fate(v, forced, level);
+                // A subdivided node hands its children the program pruned
+                // on its box. A leaf keeps its own: pruning an ambiguous
+                // one for the proof search and the mesher's point
+                // evaluations costs more than the shorter program saves
+                // (measured on colonnade: 84k prunes at the last level, 29%
+                // of them shorter).
+                let child = match leaf {
+                    None => tape.child(cells[start + k], self.full_len, &self.store),
+                    Some(_) => tape.clone(),
+                };
+                out.push((leaf, child));
+            }
+            start = end;
+        }
+        out
+    }
+
+    /// Applies the fates of `frontier`'s cells (at `level`): leaves keep
+    /// their fate and tape, the others get 8 children, which are the next
+    /// frontier. Counts the live pruned programs into the store.
+    fn grow(
+        &mut self,
+        frontier: &[(u32, Tape)],
+        judged: Vec<(Option<Leaf>, Tape)>,
+        level: u8,
+    ) -> Vec<(u32, Tape)> {
+        let mut next = Vec::new();
+        // The programs alive after this level: the leaves' (kept to the
+        // end) and the next frontier's; the store counts them.
+        let mut last: *const Reference = std::ptr::null();
+        let mut counted = |tape: &Tape| match &tape.program {
+            Some(r) if !std::ptr::eq(Arc::as_ptr(r), last) => {
+                last = Arc::as_ptr(r);
+                r.0.insts.len() as u64
+            }
+            _ => 0,
+        };
+        let mut frontier_live = 0;
+        let tree = &mut self.tree;
+        for ((i, _), (leaf, tape)) in frontier.iter().zip(judged) {
+            let i = *i as usize;
+            match leaf {
+                Some(l) => {
+                    tree.nodes[i].kind = Kind::Leaf(l);
+                    self.leaf_live += counted(&tape);
+                    if tape.program.is_some() {
+                        if tree.tapes.len() <= i {
+                            tree.tapes.resize(i + 1, None);
+                        }
+                        tree.tapes[i] = tape.program.clone();
+                    }
+                    if l == Leaf::Ambiguous {
+                        self.ambiguous.push((i as u32, tape));
+                    }
+                }
+                None => {
+                    frontier_live += counted(&tape);
+                    let first = tree.nodes.len() as u32;
+                    let parent = tree.nodes[i];
+                    tree.nodes[i].kind = Kind::Branch { first_child: first };
+                    for o in Octant::ALL {
+                        tree.nodes
+                            .push(Node::open(level + 1, o.child_ijk(parent.ijk)));
+                        next.push((first + u32::from(o.0), tape.clone()));
+                    }
+                }
+            }
+        }
+        self.store
+            .store(self.leaf_live + frontier_live, Ordering::Relaxed);
+        next
+    }
+
+    /// The proof search below the ambiguous leaves, then the counts.
+    fn finish(mut self) -> Octree {
+        // The proof search: about ten evaluations a leaf.
+        let long = self.budget.spend(
+            10 * self
+                .ambiguous
+                .iter()
+                .map(|(_, t)| t.long_cost())
+                .sum::<u64>(),
+        );
+        self.tree
+            .clear_false_ambiguity(self.f, self.opts, &self.ambiguous, long);
+        self.tree.count();
+        self.tree
+    }
+}
+
 impl Octree {
     /// The leaf whose closed box holds `p` (descent by the splitting
     /// planes of [`Octree::cell_box`]), if `p` is in the domain.
@@ -659,11 +907,9 @@ impl Octree {
             return None;
         }
         let mut i = 0usize;
-        while !self.nodes[i].is_leaf() {
-            let first = self.nodes[i].first_child as usize;
-            let (_, split) = self.cell_box(&self.nodes[first]);
-            let c = (0..3).fold(0, |c, k| c | (usize::from(p[k] >= split[k]) << k));
-            i = first + c;
+        while let Kind::Branch { first_child } = self.nodes[i].kind {
+            let (_, split) = self.cell_box(&self.nodes[first_child as usize]);
+            i = first_child as usize + usize::from(Octant::containing(p, split).0);
         }
         Some(i)
     }
@@ -708,177 +954,19 @@ impl Octree {
         refine: &Refine,
         progress: &(dyn Fn(u8, usize) + Sync),
     ) -> Octree {
-        let max_level = opts.max_level.min(MAX_LEVEL);
-        let min_level = opts.min_level.min(max_level);
-        let mut tree = Octree {
-            nodes: vec![Node {
-                first_child: 0,
-                level: 0,
-                ijk: [0; 3],
-                leaf: None,
-            }],
-            lo: DVec3::from_array(domain.lo),
-            size: DVec3::from_array(domain.hi) - DVec3::from_array(domain.lo),
-            stats: OctreeStats::default(),
-            tapes: Vec::new(),
-        };
-        let full = f.program().filter(|p| opts.prune && prune::has_choices(p));
-        let full_len = full.map_or(0, |p| p.insts.len());
-        let root_tape = Tape {
-            program: full.map(|p| Arc::new(Reference(p.clone()))),
-            interpret: false,
-            skip: false,
-        };
-        let mut budget = Budget {
-            left: INTERPRET_BUDGET * full_len as u64,
-            open: true,
-        };
-        let store = AtomicU64::new(0);
-        // The chord tolerance in domain units, applied from the minimal
-        // level up to (not at) the maximal one.
-        let tau = opts.chord.map(|c| {
-            let side = (0..3).map(|k| tree.size[k]).fold(f64::INFINITY, f64::min);
-            c * side / (1u64 << max_level) as f64
-        });
-        let mut leaf_live = 0u64;
-        let mut frontier: Vec<(u32, Tape)> = vec![(0, root_tape)];
-        // Ambiguous leaves at the maximal level, with their tapes, for the
-        // proof search.
-        let mut ambiguous: Vec<(u32, Tape)> = Vec::new();
+        let (mut b, root) = Builder::new(f, domain, opts, refine);
+        let mut frontier: Vec<(u32, Tape)> = vec![(0, root)];
         let mut evaluated = 0;
-        for level in 0..=max_level {
+        for level in 0..=b.max_level {
             if frontier.is_empty() {
                 break;
             }
-            let fate = |v: &criteria::Verdict, forced: bool| -> Option<Leaf> {
-                if forced && level < max_level {
-                    None
-                } else if v.empty {
-                    Some(Leaf::Empty)
-                } else if level < min_level {
-                    None
-                } else if level == max_level {
-                    Some(if v.topology_ok {
-                        Leaf::Surface
-                    } else {
-                        Leaf::Ambiguous
-                    })
-                } else if v.topology_ok && v.geometry_ok {
-                    Some(Leaf::Surface)
-                } else {
-                    None
-                }
-            };
-            let long = budget.spend(frontier.iter().map(|(_, t)| t.long_cost()).sum());
-            let chord_level = level >= min_level && level < max_level;
-            let tree_ref = &tree;
-            let judged: Vec<(Option<Leaf>, Tape)> = frontier
-                .par_chunks(BATCH)
-                .flat_map_iter(|chunk| {
-                    let cells: Vec<[Interval; 4]> = chunk
-                        .iter()
-                        .map(|(i, _)| {
-                            let (a, b) = tree_ref.cell_box(&tree_ref.nodes[*i as usize]);
-                            cell_input(a, b, opts.t)
-                        })
-                        .collect();
-                    let mut out = Vec::with_capacity(chunk.len());
-                    let mut start = 0;
-                    while start < chunk.len() {
-                        let tape = &chunk[start].1;
-                        let mut end = start + 1;
-                        while end < chunk.len() && chunk[end].1.same(tape) {
-                            end += 1;
-                        }
-                        let verdicts = tape.with(f, long, |e, interpreted| {
-                            let mut v = examine(e, &cells[start..end], opts, interpreted);
-                            if let Some(tau) = tau.filter(|_| chord_level) {
-                                chord_test(e, &cells[start..end], &mut v, tau, opts.t);
-                            }
-                            v
-                        });
-                        for (k, v) in verdicts.iter().enumerate() {
-                            let node = &tree_ref.nodes[chunk[start + k].0 as usize];
-                            let forced = refine.contains(&(node.level, node.ijk));
-                            let leaf = fate(v, forced);
-                            // A subdivided node hands its children the
-                            // program pruned on its box. A leaf keeps its
-                            // own: pruning an ambiguous one for the proof
-                            // search and the mesher's point evaluations
-                            // costs more than the shorter program saves
-                            // (measured on colonnade: 84k prunes at the
-                            // last level, 29% of them shorter).
-                            let child = match leaf {
-                                None => tape.child(cells[start + k], full_len, &store),
-                                Some(_) => tape.clone(),
-                            };
-                            out.push((leaf, child));
-                        }
-                        start = end;
-                    }
-                    out
-                })
-                .collect();
+            let judged = b.judge_level(&frontier, level);
             evaluated += frontier.len();
-            let mut next = Vec::new();
-            // The programs alive after this level: the leaves' (kept to
-            // the end) and the next frontier's; the store counts them.
-            let mut last: *const Reference = std::ptr::null();
-            let mut counted = |tape: &Tape| match &tape.program {
-                Some(r) if !std::ptr::eq(Arc::as_ptr(r), last) => {
-                    last = Arc::as_ptr(r);
-                    r.0.insts.len() as u64
-                }
-                _ => 0,
-            };
-            let mut frontier_live = 0;
-            for ((i, _), (leaf, tape)) in frontier.iter().zip(judged) {
-                let i = *i;
-                match leaf {
-                    Some(l) => {
-                        tree.nodes[i as usize].leaf = Some(l);
-                        leaf_live += counted(&tape);
-                        if tape.program.is_some() {
-                            if tree.tapes.len() <= i as usize {
-                                tree.tapes.resize(i as usize + 1, None);
-                            }
-                            tree.tapes[i as usize] = tape.program.clone();
-                        }
-                        if l == Leaf::Ambiguous {
-                            ambiguous.push((i, tape));
-                        }
-                    }
-                    None => {
-                        frontier_live += counted(&tape);
-                        let first = tree.nodes.len() as u32;
-                        let parent = tree.nodes[i as usize];
-                        tree.nodes[i as usize].first_child = first;
-                        for c in 0..8u32 {
-                            let bit = |k: u32| (c >> k) & 1;
-                            tree.nodes.push(Node {
-                                first_child: 0,
-                                level: level + 1,
-                                ijk: [
-                                    parent.ijk[0] * 2 + bit(0),
-                                    parent.ijk[1] * 2 + bit(1),
-                                    parent.ijk[2] * 2 + bit(2),
-                                ],
-                                leaf: None,
-                            });
-                            next.push((first + c, tape.clone()));
-                        }
-                    }
-                }
-            }
-            store.store(leaf_live + frontier_live, Ordering::Relaxed);
+            frontier = b.grow(&frontier, judged, level);
             progress(level, evaluated);
-            frontier = next;
         }
-        // The proof search: about ten evaluations a leaf.
-        let long = budget.spend(10 * ambiguous.iter().map(|(_, t)| t.long_cost()).sum::<u64>());
-        tree.clear_false_ambiguity(f, opts, &ambiguous, long);
-        tree.count();
-        tree
+        b.finish()
     }
 
     /// An ambiguous leaf at the maximal level may be ambiguous only because
@@ -904,7 +992,7 @@ impl Octree {
             .collect();
         for ((i, _), empty) in ambiguous.iter().zip(proved) {
             if empty {
-                self.nodes[*i as usize].leaf = Some(Leaf::Empty);
+                self.nodes[*i as usize].kind = Kind::Leaf(Leaf::Empty);
             }
         }
     }
@@ -915,13 +1003,13 @@ impl Octree {
             ..OctreeStats::default()
         };
         for n in &self.nodes {
-            match n.leaf {
+            match n.leaf() {
                 Some(Leaf::Empty) => s.empty_leaves += 1,
                 Some(Leaf::Surface) => s.surface_leaves += 1,
                 Some(Leaf::Ambiguous) => s.ambiguous_leaves += 1,
                 None => continue,
             }
-            if n.leaf != Some(Leaf::Empty) {
+            if n.leaf() != Some(Leaf::Empty) {
                 s.max_level_reached = s.max_level_reached.max(n.level);
             }
         }

@@ -272,7 +272,7 @@ pub fn extract<E: Evaluator + ?Sized>(
         .flat_map(|o| o.interiors.iter().copied())
         .collect();
 
-    let ambiguous_leaf = |c: Corner| nodes[c.node as usize].leaf == Some(Leaf::Ambiguous);
+    let ambiguous_leaf = |c: Corner| nodes[c.node as usize].leaf() == Some(Leaf::Ambiguous);
     // Edge keys sort before interior keys.
     let edges = keys.partition_point(|k| k.is_edge());
     let mut placed: Vec<(DVec3, bool)> = keys[..edges]

@@ -799,7 +799,7 @@ fn fill_disc(mesh: &mut CellMesh, v: &[f64; 8], lp: &[u8]) {
     let centroid = project(v, pos[..n].iter().copied().sum::<DVec3>() / n as f64);
     let (around, c) = (0..n)
         .flat_map(|i| (i + 2..n).map(move |j| (i, j)))
-        .filter(|&(i, j)| !(i == 0 && j == n - 1) && !chord_allowed(faces[i], faces[j]))
+        .filter(|&(i, j)| j - i < n - 1 && !chord_allowed(faces[i], faces[j]))
         .flat_map(|(i, j)| {
             [
                 (pos[i] + pos[j]) * 0.5,

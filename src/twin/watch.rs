@@ -104,7 +104,7 @@ pub fn certify<E: Evaluator + ?Sized>(
         let mut values = values.into_iter();
         let mut next = Vec::new();
         for (&ijk, g) in cells.iter().zip(&evals) {
-            let empty = |v: Interval| v.lo > 0.0 || v.hi < 0.0;
+            let empty = |v: Interval| v.excludes_zero();
             if g.defined && empty(g.value) {
                 continue;
             }
@@ -116,7 +116,7 @@ pub fn certify<E: Evaluator + ?Sized>(
                 continue;
             }
             let on_boundary = ijk.iter().any(|&i| i == 0 || i + 1 == n);
-            let regular = g.grad.iter().any(|c| c.lo > 0.0 || c.hi < 0.0);
+            let regular = g.grad.iter().any(|c| c.excludes_zero());
             if g.defined && !on_boundary && regular {
                 continue;
             }

@@ -449,6 +449,65 @@ fn vm_two_d_model_gives_an_open_prism() {
     assert_eq!(j["watertight"], false, "{j}");
     assert!(j["boundary_edges"].as_u64().unwrap() > 0, "{j}");
     assert!(j["triangles"].as_u64().unwrap() > 0, "{j}");
+    // Open only where the domain cuts it: still a manifold (SPEC §2).
+    assert_eq!(j["manifold"], true, "{j}");
+    assert_eq!(j["nonmanifold_edges"], 0, "{j}");
+}
+
+#[test]
+fn mesh_reports_the_manifold_check() {
+    // The random CSG scene whose mesh once had 3 edges on four triangles
+    // (in ambiguous cells): closed and 2-manifold, and said so.
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/regress/csg_nonmanifold.iso");
+    let out = temp_file("csg_nonmanifold.ply", b"");
+    let args = [
+        "mesh",
+        scene.to_str().unwrap(),
+        "--level",
+        "7",
+        "--stats",
+        "json",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    let o = isoc(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(j["manifold"], true, "{j}");
+    assert_eq!(j["nonmanifold_edges"], 0, "{j}");
+    assert_eq!(j["watertight"], true, "{j}");
+    assert!(stderr(&o).contains(", manifold,"), "{}", stderr(&o));
+}
+
+#[test]
+fn level_alone_is_faithful_kmax_and_coarse_are_the_adaptive_minimum() {
+    let f = temp_file(
+        "faithful_sphere.iso",
+        b"domain [-1.5, 1.5]^3;\nsurface x^2 + y^2 + z^2 - 1;\n",
+    );
+    let out = temp_file("faithful_sphere.ply", b"");
+    let tris = |extra: &[&str]| {
+        let mut args = vec![
+            "mesh",
+            f.to_str().unwrap(),
+            "--level",
+            "6",
+            "--stats",
+            "json",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        mesh_stats(&args)["triangles"].as_u64().unwrap()
+    };
+    let (faithful, coarse) = (tris(&[]), tris(&["--coarse"]));
+    // The chord criterion refines the flat-looking cells the geometry
+    // criterion alone keeps coarse (a sphere: 284 triangles at any level).
+    assert!(faithful > 10 * coarse, "{faithful} vs {coarse}");
+    // An explicit --kmax replaces the default: the adaptive minimum.
+    assert_eq!(tris(&["--kmax", "1"]), coarse);
+    assert!(tris(&["--kmax", "0.2"]) > coarse);
 }
 
 #[test]

@@ -8,32 +8,27 @@ use std::collections::HashSet;
 
 use glam::DVec3;
 use isoc::dual::{self, Corner};
-use isoc::octree::{Leaf, Node, Octree, OctreeStats};
+use isoc::octree::{Kind, Leaf, Node, Octant, Octree, OctreeStats};
 
 /// An octree over [0,1]³ split wherever `split(level, ijk)` says, to at
 /// most `max` levels.
 fn tree(max: u8, split: &dyn Fn(u8, [u32; 3]) -> bool) -> Octree {
-    let mut nodes = vec![Node {
-        first_child: 0,
-        level: 0,
-        ijk: [0; 3],
-        leaf: None,
-    }];
+    let open = |level: u8, ijk: [u32; 3]| Node {
+        kind: Kind::Leaf(Leaf::Surface),
+        level,
+        ijk,
+    };
+    let mut nodes = vec![open(0, [0; 3])];
     let mut i = 0;
     while i < nodes.len() {
         let n = nodes[i];
         if n.level < max && split(n.level, n.ijk) {
-            nodes[i].first_child = nodes.len() as u32;
-            for c in 0..8u32 {
-                nodes.push(Node {
-                    first_child: 0,
-                    level: n.level + 1,
-                    ijk: [0, 1, 2].map(|k| n.ijk[k] * 2 + ((c >> k) & 1)),
-                    leaf: None,
-                });
+            nodes[i].kind = Kind::Branch {
+                first_child: nodes.len() as u32,
+            };
+            for o in Octant::ALL {
+                nodes.push(open(n.level + 1, o.child_ijk(n.ijk)));
             }
-        } else {
-            nodes[i].leaf = Some(Leaf::Surface);
         }
         i += 1;
     }

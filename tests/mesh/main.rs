@@ -12,6 +12,7 @@ mod adapt;
 mod corpus_mesh;
 mod crease;
 mod dual;
+mod faithful;
 mod mc33;
 mod mesh;
 mod quality;

@@ -574,7 +574,7 @@ fn refining_splits_exactly_the_marked_cells() {
         if marked.contains(&key(n)) {
             assert!(!m.is_leaf(), "marked {:?} was not split", key(n));
         } else {
-            assert!(m.is_leaf() && m.leaf == n.leaf, "{:?} changed", key(n));
+            assert!(m.is_leaf() && m.leaf() == n.leaf(), "{:?} changed", key(n));
         }
     }
 }

@@ -801,13 +801,17 @@ pub fn isoc_points(m: &isoc::mesh::Mesh) -> Vec<[f64; 3]> {
 
 /// isoc's mesher at `level` with `isoc mesh`'s defaults (faithful
 /// `--level`: the chord criterion, smoothing, creases) on the surface's own
-/// domain.
+/// domain; `chord` replaces the default chord tolerance (calibration).
 pub fn isoc_mesh_default(
     case: &Case,
     level: u8,
+    chord: Option<f64>,
 ) -> (isoc::mesh::Mesh, isoc::mesher::MeshReport) {
     let mut opts = isoc::mesher::MeshOptions::default();
     opts.octree.max_level = level;
+    if let Some(c) = chord {
+        opts.octree.chord = Some(c);
+    }
     isoc::mesher::mesh(&case.surface, &opts, &|_| {})
 }
 

@@ -45,6 +45,8 @@ struct Args {
     /// Only the faithful-defaults table (`isoc mesh --level L` against
     /// Fidget depth L, at each of `levels`).
     faithful: bool,
+    /// The chord tolerance of `--faithful` runs (default: isoc's).
+    chord: Option<f64>,
     only: Vec<String>,
 }
 
@@ -56,6 +58,7 @@ fn args() -> Args {
         smooth: 0,
         tolerance: false,
         faithful: false,
+        chord: None,
         only: vec![],
     };
     let mut it = std::env::args().skip(1);
@@ -65,6 +68,7 @@ fn args() -> Args {
             "--no-mesh" => a.mesh = false,
             "--tolerance" => a.tolerance = true,
             "--faithful" => a.faithful = true,
+            "--chord" => a.chord = it.next().and_then(|c| c.parse().ok()),
             "--levels" => {
                 a.levels = it
                     .next()
@@ -76,7 +80,7 @@ fn args() -> Args {
             "--smooth" => a.smooth = it.next().and_then(|n| n.parse().ok()).expect("--smooth 3"),
             "-h" | "--help" => {
                 println!(
-                    "usage: isoc-peers [--quick] [--no-mesh] [--levels 6,7] [--smooth N] [--tolerance] [--faithful] [formula…]"
+                    "usage: isoc-peers [--quick] [--no-mesh] [--levels 6,7] [--smooth N] [--tolerance] [--faithful [--chord C]] [formula…]"
                 );
                 std::process::exit(0);
             }
@@ -403,7 +407,7 @@ fn faithful_table(a: &Args) {
             let mut iso = None;
             let ti = median(
                 || {
-                    let r = isoc_mesh_default(&c, level);
+                    let r = isoc_mesh_default(&c, level, a.chord);
                     let n = r.0.triangles.len() as f64;
                     iso = Some(r);
                     n
