@@ -818,7 +818,8 @@ pub fn isoc_mesh_default(
 /// Triangle centroids and edge midpoints: where the chord error of a mesh
 /// shows (issue 21's chord measure).
 pub fn chord_points(pts: &[[f64; 3]], tris: &[[usize; 3]]) -> Vec<[f64; 3]> {
-    let mid = |a: usize, b: usize| -> [f64; 3] { std::array::from_fn(|k| 0.5 * (pts[a][k] + pts[b][k])) };
+    let mid =
+        |a: usize, b: usize| -> [f64; 3] { std::array::from_fn(|k| 0.5 * (pts[a][k] + pts[b][k])) };
     let mut edges: Vec<(usize, usize)> = tris
         .iter()
         .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])

@@ -26,6 +26,32 @@ fn median(mut f: impl FnMut() -> f64, min_reps: usize, budget: f64) -> f64 {
     t[t.len() / 2]
 }
 
+/// The surfaces of a table (the named ones, else `default`) and the runs
+/// per measurement (1 with `--quick`, else 3).
+fn surfaces<'a>(a: &'a Args, default: &[&'a str]) -> (Vec<&'a str>, usize) {
+    let names = if a.only.is_empty() {
+        default.to_vec()
+    } else {
+        a.only.iter().map(String::as_str).collect()
+    };
+    (names, if a.quick { 1 } else { 3 })
+}
+
+/// The median wall time (seconds) of `reps` runs of `run`, after one
+/// warm-up, and the last run's result.
+fn timed<T>(reps: usize, mut run: impl FnMut() -> T) -> (T, f64) {
+    let mut last = None;
+    let t = median(
+        || {
+            last = Some(run());
+            0.0
+        },
+        reps,
+        0.0,
+    );
+    (last.expect("median runs at least once"), t)
+}
+
 /// Median of `reps` self-timed measurements.
 fn median_of(mut f: impl FnMut() -> f64, reps: usize) -> f64 {
     f();
@@ -298,12 +324,7 @@ fn main() {
 /// at depth 8 (issue 11's targets), on [`TOLERANCE_SET`] or the named
 /// surfaces.
 fn tolerance_table(a: &Args) {
-    let names: Vec<&str> = if a.only.is_empty() {
-        TOLERANCE_SET.to_vec()
-    } else {
-        a.only.iter().map(String::as_str).collect()
-    };
-    let reps = if a.quick { 1 } else { 3 };
+    let (names, reps) = surfaces(a, &TOLERANCE_SET);
     println!(
         "## Meshing to a tolerance (wall time, median of {reps} runs, {} rayon threads; ratio = isoc / Fidget)\n",
         rayon_threads()
@@ -323,30 +344,8 @@ fn tolerance_table(a: &Args) {
     for name in names {
         let c = Case::load(name).unwrap_or_else(|e| panic!("{e}"));
         let d = 1e-4 * diagonal(&c);
-        let mut iso = None;
-        let ti = median(
-            || {
-                let r = isoc_mesh_tolerance(&c, d);
-                let n = r.0.triangles.len() as f64;
-                iso = Some(r);
-                n
-            },
-            reps,
-            0.0,
-        );
-        let mut fid = None;
-        let tf = median(
-            || {
-                let m = fidget_mesh(&c, 8);
-                let n = m.triangles.len() as f64;
-                fid = Some(m);
-                n
-            },
-            reps,
-            0.0,
-        );
-        let (im, rep, tol) = iso.unwrap();
-        let fm = fid.unwrap();
+        let ((im, rep, tol), ti) = timed(reps, || isoc_mesh_tolerance(&c, d));
+        let (fm, tf) = timed(reps, || fidget_mesh(&c, 8));
         let (ip, fp) = (isoc_points(&im), fidget_points(&fm));
         let (it, ft) = (isoc_triangles(&im), fidget_triangles(&fm));
         let (_, icp, icx) = distance_in(&c, &centroids(&ip, &it), d);
@@ -381,12 +380,8 @@ fn tolerance_table(a: &Args) {
 /// `--level`) against Fidget at depth L, on the corpus formulas and models
 /// or the named surfaces, at each of `--levels`.
 fn faithful_table(a: &Args) {
-    let names: Vec<&str> = if a.only.is_empty() {
-        CORPUS.iter().chain(&MODELS).copied().collect()
-    } else {
-        a.only.iter().map(String::as_str).collect()
-    };
-    let reps = if a.quick { 1 } else { 3 };
+    let all: Vec<&str> = CORPUS.iter().chain(&MODELS).copied().collect();
+    let (names, reps) = surfaces(a, &all);
     println!(
         "## Faithful `--level` (wall time, median of {reps} runs, {} rayon threads; ratio = isoc / Fidget)\n",
         rayon_threads()
@@ -404,30 +399,8 @@ fn faithful_table(a: &Args) {
     for name in names {
         let c = Case::load(name).unwrap_or_else(|e| panic!("{e}"));
         for &level in &a.levels {
-            let mut iso = None;
-            let ti = median(
-                || {
-                    let r = isoc_mesh_default(&c, level, a.chord);
-                    let n = r.0.triangles.len() as f64;
-                    iso = Some(r);
-                    n
-                },
-                reps,
-                0.0,
-            );
-            let mut fid = None;
-            let tf = median(
-                || {
-                    let m = fidget_mesh(&c, level);
-                    let n = m.triangles.len() as f64;
-                    fid = Some(m);
-                    n
-                },
-                reps,
-                0.0,
-            );
-            let (im, rep) = iso.unwrap();
-            let fm = fid.unwrap();
+            let ((im, rep), ti) = timed(reps, || isoc_mesh_default(&c, level, a.chord));
+            let (fm, tf) = timed(reps, || fidget_mesh(&c, level));
             let (ip, fp) = (isoc_points(&im), fidget_points(&fm));
             let (it, ft) = (isoc_triangles(&im), fidget_triangles(&fm));
             let (_, icp, _) = vertex_distance(&c, &chord_points(&ip, &it), level);
