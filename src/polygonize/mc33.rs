@@ -759,45 +759,73 @@ fn fill_disc(mesh: &mut CellMesh, v: &[f64; 8], lp: &[u8]) {
             .map(|&i| mesh.verts[i as usize].position())
             .unwrap_or(DVec3::ZERO)
     });
-    // Best fan apex: maximise the worst orientation quality, among the
-    // apices whose chords are all allowed ([`chord_allowed`]).
     let faces: [u8; 12] =
         core::array::from_fn(|k| lp.get(k).map_or(0, |&i| faces_of(mesh.verts[i as usize])));
-    let mut best = (f64::NEG_INFINITY, 0);
-    for apex in 0..n {
-        if (2..n - 1).any(|i| !chord_allowed(faces[apex], faces[(apex + i) % n])) {
-            continue;
-        }
-        let mut worst = f64::INFINITY;
-        for i in 1..n - 1 {
-            let (p, q, r) = (pos[apex], pos[(apex + i) % n], pos[(apex + i + 1) % n]);
-            worst = worst.min(orientation_quality(v, p, q, r));
-        }
-        if worst > best.0 {
-            best = (worst, apex);
-        }
-    }
-    if best.0 > 0.05 {
-        let apex = best.1;
+    let (worst, apex) = best_fan(v, &pos, &faces, n);
+    if worst > 0.05 {
         for i in 1..n - 1 {
             mesh.push_tri(lp[apex], lp[(apex + i) % n], lp[(apex + i + 1) % n]);
         }
         return;
     }
     // No fan will do: the best triangulation of the loop with allowed
-    // chords only, or a fan from an interior vertex on T = 0 near the
-    // loop's centroid, whichever faces along the gradient better.
+    // chords only, or a fan from an interior vertex on T = 0, whichever
+    // faces along the gradient better.
     let (worst, split) = best_triangulation(v, &pos, &faces, n);
-    // The interior vertex: near the centroid, at the middle of a chord that
-    // is not allowed, or next to one of its ends (the fans from there would
-    // draw it).
+    let (around, c) = best_interior_apex(v, &pos, &faces, n);
+    if worst > 0.05 || worst >= around {
+        push_triangulation(mesh, lp, &split);
+        return;
+    }
+    match mesh.push_vertex(Vertex::Interior(c)) {
+        Some(ci) => {
+            for i in 0..n {
+                mesh.push_tri(ci, lp[i], lp[(i + 1) % n]);
+            }
+        }
+        // No room for the vertex (never seen: 12 edge vertices at most
+        // leave 12 free): any fan.
+        None => {
+            for i in 1..n - 1 {
+                mesh.push_tri(lp[0], lp[i], lp[i + 1]);
+            }
+        }
+    }
+}
+
+/// The fan apex of the loop `pos[..n]` that maximises the worst
+/// orientation quality, among the apices whose chords are all allowed
+/// ([`chord_allowed`]): (worst quality, apex), −∞ when none is.
+fn best_fan(v: &[f64; 8], pos: &[DVec3; 12], faces: &[u8; 12], n: usize) -> (f64, usize) {
+    let mut best = (f64::NEG_INFINITY, 0);
+    for apex in 0..n {
+        if (2..n - 1).any(|i| !chord_allowed(faces[apex], faces[(apex + i) % n])) {
+            continue;
+        }
+        let worst = (1..n - 1)
+            .map(|i| {
+                orientation_quality(v, pos[apex], pos[(apex + i) % n], pos[(apex + i + 1) % n])
+            })
+            .fold(f64::INFINITY, f64::min);
+        if worst > best.0 {
+            best = (worst, apex);
+        }
+    }
+    best
+}
+
+/// The interior vertex on `T = 0` whose fan over the loop `pos[..n]` is
+/// best oriented: (worst quality, position). Candidates: near the loop's
+/// centroid, at the middle of a chord that is not allowed, or next to one
+/// of its ends (where the fans that would draw it start).
+fn best_interior_apex(v: &[f64; 8], pos: &[DVec3; 12], faces: &[u8; 12], n: usize) -> (f64, DVec3) {
     let fan_from = |c: DVec3| {
         (0..n)
             .map(|i| orientation_quality(v, c, pos[i], pos[(i + 1) % n]))
             .fold(f64::INFINITY, f64::min)
     };
     let centroid = project(v, pos[..n].iter().copied().sum::<DVec3>() / n as f64);
-    let (around, c) = (0..n)
+    (0..n)
         .flat_map(|i| (i + 2..n).map(move |j| (i, j)))
         .filter(|&(i, j)| j - i < n - 1 && !chord_allowed(faces[i], faces[j]))
         .flat_map(|(i, j)| {
@@ -813,36 +841,26 @@ fn fill_disc(mesh: &mut CellMesh, v: &[f64; 8], lp: &[u8]) {
         })
         .fold((fan_from(centroid), centroid), |a, b| {
             if b.0 > a.0 { b } else { a }
-        });
-    if worst > 0.05 || worst >= around {
-        let mut todo = [(0u8, 0u8); 12];
-        let mut top = 1;
-        todo[0] = (0, n as u8 - 1);
-        while top > 0 {
-            top -= 1;
-            let (i, j) = todo[top];
-            if j - i < 2 {
-                continue;
-            }
-            let k = split[i as usize][j as usize];
-            mesh.push_tri(lp[i as usize], lp[k as usize], lp[j as usize]);
-            todo[top] = (i, k);
-            todo[top + 1] = (k, j);
-            top += 2;
+        })
+}
+
+/// Pushes the triangles of the loop `lp` given by [`best_triangulation`]'s
+/// apices `split` (triangle `i k j` for each sub-polygon `i..=j`).
+fn push_triangulation(mesh: &mut CellMesh, lp: &[u8], split: &[[u8; 12]; 12]) {
+    let mut todo = [(0u8, 0u8); 12];
+    let mut top = 1;
+    todo[0] = (0, lp.len() as u8 - 1);
+    while top > 0 {
+        top -= 1;
+        let (i, j) = todo[top];
+        if j - i < 2 {
+            continue;
         }
-        return;
-    }
-    match mesh.push_vertex(Vertex::Interior(c)) {
-        Some(ci) => {
-            for i in 0..n {
-                mesh.push_tri(ci, lp[i], lp[(i + 1) % n]);
-            }
-        }
-        None => {
-            for i in 1..n - 1 {
-                mesh.push_tri(lp[0], lp[i], lp[i + 1]);
-            }
-        }
+        let k = split[i as usize][j as usize];
+        mesh.push_tri(lp[i as usize], lp[k as usize], lp[j as usize]);
+        todo[top] = (i, k);
+        todo[top + 1] = (k, j);
+        top += 2;
     }
 }
 
