@@ -14,6 +14,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 pub mod adapt;
+pub mod chord;
 pub mod crease;
 pub mod flip;
 pub mod smooth;
@@ -211,17 +212,25 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     progress(Stage::Polygonize);
     let t0 = Instant::now();
     let (mut mesh, ex, cell_of) = extract::extract(&tree, &field, t, &values, &active);
-    let creases = if opts.creases {
+    let mut creases = if opts.creases {
         let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
         crease::sharpen(&mut mesh, &cell_of, &bounds, &field, t)
     } else {
         crease::Creases::default()
     };
+    if let Some(tau) = opts.octree.chord_tolerance(domain) {
+        chord::split_edges(&mut mesh, &mut creases.feature, &field, t, tau);
+    }
     let polygonize_ms = ms(t0);
 
     progress(Stage::Smooth);
     let t0 = Instant::now();
     let moves = smooth::smooth_keeping(&mut mesh, &field, t, opts.smooth, &creases.feature);
+    if let Some(tau) = opts.octree.chord_tolerance(domain) {
+        // Relaxation moves vertices along the surface and may stretch an
+        // edge past the tolerance again: one more round on the result.
+        chord::split_round(&mut mesh, &mut creases.feature, &field, t, tau);
+    }
     let smooth_ms = ms(t0);
 
     let (topo, aspect_good) = if analyze {

@@ -184,12 +184,14 @@ pub struct OctreeOptions {
     pub t: f64,
     /// Prune the program per subtree (see the module doc's "Pruning").
     pub prune: bool,
-    /// Faithful `--level` (SPEC §2): below the maximal level, subdivide a
-    /// cell that passes the other criteria while its estimated chord error
-    /// ([`criteria::chord_error`]) exceeds this many sides of a
-    /// maximal-level cell (the smallest side of Ω over `2^max_level`).
-    /// `None`: the geometry criterion `k_max` alone (the adaptive minimum,
-    /// `--coarse`).
+    /// Faithful `--level` (SPEC §2): the chord tolerance, in sides of a
+    /// maximal-level cell (the smallest side of Ω over `2^max_level`;
+    /// [`OctreeOptions::chord_tolerance`] in domain units). Below the
+    /// maximal level, a cell that passes the other criteria is subdivided
+    /// while its estimated chord error ([`criteria::chord_error`]) exceeds
+    /// `OCTREE_SLACK` times it; the mesher then splits the edges still
+    /// farther than it (`mesher::chord`). `None`: the geometry criterion
+    /// `k_max` alone (the adaptive minimum, `--coarse`).
     pub chord: Option<f64>,
 }
 
@@ -207,10 +209,27 @@ impl Default for OctreeOptions {
     }
 }
 
+impl OctreeOptions {
+    /// The chord tolerance [`OctreeOptions::chord`] in domain units: its
+    /// share of the smallest side of a maximal-level cell of `domain`.
+    pub fn chord_tolerance(&self, domain: Bounds) -> Option<f64> {
+        let side = (0..3)
+            .map(|k| domain.hi[k] - domain.lo[k])
+            .fold(f64::INFINITY, f64::min);
+        let level = self.max_level.min(MAX_LEVEL);
+        self.chord.map(|c| c * side / (1u64 << level) as f64)
+    }
+}
+
+/// The octree's chord criterion subdivides cells whose estimated chord
+/// error exceeds this many times the tolerance: the mesher's edge splits
+/// ([`crate::mesher::chord`]) correct the last factor below a level.
+const OCTREE_SLACK: f64 = 4.0;
+
 /// The default chord tolerance of [`OctreeOptions::chord`], in sides of a
-/// maximal-level cell (calibrated against a uniform mesher at that depth:
+/// maximal-level cell (calibrated against Fidget at depth 8:
 /// `docs/faithful.md`).
-pub const DEFAULT_CHORD: f64 = 0.03;
+pub const DEFAULT_CHORD: f64 = 0.035;
 
 /// Subdivides, among `cells` (all at one level) evaluated by `f`, the ones
 /// whose verdict would make them surface leaves but whose estimated chord
@@ -706,12 +725,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             interpret: false,
             skip: false,
         };
-        // The chord tolerance in domain units: a share of the smallest
-        // side of a maximal-level cell.
-        let tau = opts.chord.map(|c| {
-            let side = (0..3).map(|k| tree.size[k]).fold(f64::INFINITY, f64::min);
-            c * side / (1u64 << max_level) as f64
-        });
+        let tau = opts.chord_tolerance(domain).map(|c| OCTREE_SLACK * c);
         let b = Builder {
             f,
             opts,

@@ -411,6 +411,9 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
                 max_level: level,
                 min_level: level,
                 t,
+                // Plain marching cubes at the level: the tracker sizes
+                // its meshes itself.
+                chord: None,
                 ..OctreeOptions::default()
             },
             smooth: 0,

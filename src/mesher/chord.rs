@@ -1,0 +1,180 @@
+//! Chord refinement: the edges of an extracted mesh whose midpoints stand
+//! too far off the surface are split, the new vertex projected onto
+//! `f = 0` (faithful `--level`, SPEC §2, between two octree levels).
+//!
+//! # Contract
+//!
+//! A round measures every edge's midpoint by its first-order distance
+//! `|f| / ‖∇f‖` to the surface, splits the edges above the tolerance whose
+//! midpoint projects onto `f = 0` within half the edge's length, and
+//! re-triangulates each triangle by the number of its split edges (one:
+//! two triangles; two: the corner triangle and the remaining quad by its
+//! shorter diagonal; three: four triangles). Every split vertex is shared
+//! by the edge's triangles, so the mesh stays conforming: topology,
+//! closedness and orientation are kept, a boundary edge stays on the
+//! boundary. The decision and the new vertex depend on the edge alone,
+//! so the result does not depend on the order of the edges. Edges between
+//! two crease vertices ([`super::crease`]) are left alone (their midpoint
+//! is off the crease), and so are boundary edges (on the domain's faces,
+//! where a projected midpoint would not be) and any edge without exactly
+//! two triangles; new vertices are not crease vertices, and are ambiguous
+//! when an end of their edge is.
+//!
+//! # Limits
+//!
+//! The measure is first order and at midpoints only: a triangle whose
+//! centroid stands off while its edges do not is not split. The octree's
+//! chord criterion ([`crate::octree::OctreeOptions::chord`]) decides the
+//! coarse sizes; this pass only corrects the last factor below a level.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::eval::Evaluator;
+use crate::eval::sample::grads_at;
+use crate::mesh::Mesh;
+use crate::roots::project_along;
+
+/// Rounds of splitting (each at most halves an edge).
+pub const ROUNDS: usize = 3;
+
+/// Splits, in up to [`ROUNDS`] rounds, the edges of `mesh` whose midpoint
+/// stands farther than `tau` from `f(·, t) = 0`; `feature` flags the
+/// crease vertices (extended with `false` for the new ones). Returns how
+/// many edges were split. See the module doc.
+pub fn split_edges<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    feature: &mut Vec<bool>,
+    f: &E,
+    t: f64,
+    tau: f64,
+) -> usize {
+    let mut total = 0;
+    for _ in 0..ROUNDS {
+        let n = split_round(mesh, feature, f, t, tau);
+        if n == 0 {
+            break;
+        }
+        total += n;
+    }
+    total
+}
+
+/// One round of [`split_edges`]; returns how many edges it split.
+pub fn split_round<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    feature: &mut Vec<bool>,
+    f: &E,
+    t: f64,
+    tau: f64,
+) -> usize {
+    let splits = splits(mesh, feature, f, t, tau);
+    apply(mesh, feature, &splits);
+    splits.len()
+}
+
+/// The edges to split (smaller index first) and their new vertices'
+/// positions and gradients.
+fn splits<E: Evaluator + ?Sized>(
+    mesh: &Mesh,
+    feature: &[bool],
+    f: &E,
+    t: f64,
+    tau: f64,
+) -> Vec<((u32, u32), DVec3, DVec3)> {
+    let crease = |v: u32| feature.get(v as usize).copied().unwrap_or(false);
+    let mut uses: Vec<(u32, u32)> = mesh
+        .triangles
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .map(|(a, b)| (a.min(b), a.max(b)))
+        .filter(|&(a, b)| !(crease(a) && crease(b)))
+        .collect();
+    uses.par_sort_unstable();
+    // Edges with two triangles: a boundary edge lies on the domain's face,
+    // where a projected midpoint would not.
+    let edges: Vec<(u32, u32)> = uses
+        .chunk_by(|x, y| x == y)
+        .filter(|run| run.len() == 2)
+        .map(|run| run[0])
+        .collect();
+    let p = &mesh.positions;
+    let mids: Vec<DVec3> = edges
+        .iter()
+        .map(|&(a, b)| (p[a as usize] + p[b as usize]) * 0.5)
+        .collect();
+    let far: Vec<usize> = grads_at(f, t, &mids)
+        .iter()
+        .enumerate()
+        .filter(|(_, (v, g))| {
+            let d = v.abs() / g.length();
+            // NaN (no gradient) is not a measurement: no split.
+            d > tau
+        })
+        .map(|(i, _)| i)
+        .collect();
+    far.par_iter()
+        .filter_map(|&i| {
+            let (a, b) = edges[i];
+            let half = 0.5 * p[a as usize].distance(p[b as usize]);
+            let (q, _) = project_along(f, t, mids[i], half)?;
+            // The gradient at the new vertex itself (its normal).
+            let (_, g) = f.point_grad([q.x, q.y, q.z, t]);
+            let g = DVec3::from_array(g);
+            (g.is_finite() && g.length_squared() > 0.0).then_some(((a, b), q, g))
+        })
+        .collect()
+}
+
+/// Splits `mesh`'s edges at the given vertices (see the module doc).
+fn apply(mesh: &mut Mesh, feature: &mut Vec<bool>, splits: &[((u32, u32), DVec3, DVec3)]) {
+    feature.resize(mesh.positions.len(), false);
+    let mut at: HashMap<(u32, u32), u32> = HashMap::with_capacity(splits.len());
+    for &((a, b), q, g) in splits {
+        at.insert((a, b), mesh.positions.len() as u32);
+        let ambiguous = mesh.ambiguous[a as usize] || mesh.ambiguous[b as usize];
+        mesh.positions.push(q);
+        mesh.normals.push(g.normalize());
+        mesh.ambiguous.push(ambiguous);
+        feature.push(false);
+    }
+    let mid = |a: u32, b: u32| at.get(&(a.min(b), a.max(b))).copied();
+    let p = mesh.positions.clone();
+    let d2 = |a: u32, b: u32| p[a as usize].distance_squared(p[b as usize]);
+    let mut out = Vec::with_capacity(mesh.triangles.len() + 3 * splits.len());
+    for &t in &mesh.triangles {
+        let m = [0, 1, 2].map(|k| mid(t[k], t[(k + 1) % 3]));
+        match m.iter().filter(|x| x.is_some()).count() {
+            0 => out.push(t),
+            3 => {
+                let [ab, bc, ca] = m.map(|x| x.expect("three splits"));
+                let [a, b, c] = t;
+                out.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+            }
+            n => {
+                // Rotate so that edge 0 (a→b) is split and, with two
+                // splits, edge 1 (b→c) too.
+                let r = (0..3)
+                    .find(|&r| m[r].is_some() && (n == 1 || m[(r + 1) % 3].is_some()))
+                    .expect("a split edge");
+                let [a, b, c] = [t[r], t[(r + 1) % 3], t[(r + 2) % 3]];
+                let ab = m[r].expect("split");
+                if n == 1 {
+                    out.extend([[a, ab, c], [ab, b, c]]);
+                } else {
+                    let bc = m[(r + 1) % 3].expect("split");
+                    out.push([ab, b, bc]);
+                    // The quad a, ab, bc, c by its shorter diagonal.
+                    if d2(a, bc) <= d2(ab, c) {
+                        out.extend([[a, ab, bc], [a, bc, c]]);
+                    } else {
+                        out.extend([[a, ab, c], [ab, bc, c]]);
+                    }
+                }
+            }
+        }
+    }
+    mesh.triangles = out;
+}
