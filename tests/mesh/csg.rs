@@ -111,9 +111,9 @@ impl Tally {
 fn random_scenes() {
     let t0 = Instant::now();
     let mut tally = Tally::default();
-    run(0..300, 5, 3, &mut tally);
-    run(1000..1100, 6, 3, &mut tally);
-    run(2000..2040, 7, 3, &mut tally);
+    run(0..200, 5, 3, &mut tally);
+    run(1000..1080, 6, 3, &mut tally);
+    run(2000..2030, 7, 3, &mut tally);
     eprintln!(
         "csg random_scenes: {} in {:.1} s",
         tally.summary(),
