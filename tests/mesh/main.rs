@@ -11,6 +11,7 @@ mod support;
 mod adapt;
 mod corpus_mesh;
 mod crease;
+mod csg;
 mod dual;
 mod faithful;
 mod mc33;

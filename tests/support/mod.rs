@@ -13,6 +13,7 @@
 //! suite's own tests can show they fail on broken backends.
 #![allow(dead_code, clippy::needless_range_loop)]
 
+pub mod csg;
 pub mod exact;
 pub mod front;
 pub mod vmref;
