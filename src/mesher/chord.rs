@@ -6,7 +6,9 @@
 //!
 //! A round measures every edge's midpoint by its first-order distance
 //! `|f| / ‖∇f‖` to the surface, splits the edges above the tolerance whose
-//! midpoint projects onto `f = 0` within half the edge's length, and
+//! midpoint projects onto `f = 0` within a quarter of the edge's length,
+//! onto the sheet of the edge's ends (the normal there agrees with both
+//! ends' normals), and
 //! re-triangulates each triangle by the number of its split edges (one:
 //! two triangles; two: the corner triangle and the remaining quad by its
 //! shorter diagonal; three: four triangles). Every split vertex is shared
@@ -39,6 +41,12 @@ use crate::roots::project_along;
 
 /// Rounds of splitting (each at most halves an edge).
 pub const ROUNDS: usize = 3;
+
+/// A midpoint is split only when it projects onto the surface within this
+/// share of its edge's length, and the surface's normal there agrees with
+/// the normals at both ends: a projection that would cross a thin wall
+/// onto another sheet is refused.
+const REACH: f64 = 0.25;
 
 /// Splits, in up to [`ROUNDS`] rounds, the edges of `mesh` whose midpoint
 /// stands farther than `tau` from `f(·, t) = 0`; `feature` flags the
@@ -115,15 +123,19 @@ fn splits<E: Evaluator + ?Sized>(
         })
         .map(|(i, _)| i)
         .collect();
+    let n = &mesh.normals;
     far.par_iter()
         .filter_map(|&i| {
             let (a, b) = edges[i];
-            let half = 0.5 * p[a as usize].distance(p[b as usize]);
-            let (q, _) = project_along(f, t, mids[i], half)?;
-            // The gradient at the new vertex itself (its normal).
+            let (a, b) = (a as usize, b as usize);
+            let reach = REACH * p[a].distance(p[b]);
+            let (q, _) = project_along(f, t, mids[i], reach)?;
+            // The gradient at the new vertex itself (its normal): on the
+            // sheet of the edge's ends, not across a thin wall.
             let (_, g) = f.point_grad([q.x, q.y, q.z, t]);
             let g = DVec3::from_array(g);
-            (g.is_finite() && g.length_squared() > 0.0).then_some(((a, b), q, g))
+            let same_sheet = g.dot(n[a]) > 0.0 && g.dot(n[b]) > 0.0;
+            (g.is_finite() && same_sheet).then_some(((a as u32, b as u32), q, g))
         })
         .collect()
 }

@@ -1130,7 +1130,7 @@ pub fn bad_edge_sites(s: &Surface, mesh: &Mesh, opts: &MeshOptions, domain: &Bou
         ] {
             if let Some(l) = tree.leaf_containing(m + d * (0.5 * h)) {
                 let node = &tree.nodes[l];
-                let kind = match node.leaf {
+                let kind = match node.leaf() {
                     Some(Leaf::Empty) => "empty",
                     Some(Leaf::Surface) => "surface",
                     Some(Leaf::Ambiguous) => "ambiguous",
