@@ -58,6 +58,7 @@
 #![warn(missing_docs)]
 #![deny(clippy::print_stdout, clippy::print_stderr)]
 
+pub mod cancel;
 pub mod dual;
 pub mod error;
 pub mod eval;
@@ -78,6 +79,7 @@ pub mod twin;
 #[cfg(test)]
 mod testing;
 
+pub use cancel::{Cancel, Cancelled};
 pub use error::Error;
 pub use geometry::Bounds;
 pub use interval::{DecInterval, Interval};

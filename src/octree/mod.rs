@@ -80,6 +80,7 @@ use rayon::prelude::*;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::eval::{Evaluator, Reference, WHOLE, WHOLE_GRAD, prune};
 use crate::geometry::Bounds;
 use crate::interval::Interval;
@@ -644,6 +645,23 @@ impl Octree {
         refine: &Refine,
         progress: &(dyn Fn(u8, usize) + Sync),
     ) -> Octree {
+        match Octree::build_cancellable(f, domain, opts, refine, progress, &Cancel::new()) {
+            Ok(tree) => tree,
+            Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
+        }
+    }
+
+    /// [`Octree::build_refining`] that stops with [`Cancelled`] soon after
+    /// `cancel` is cancelled: the token is polled before each level, before
+    /// each batch of cells and before the proof search.
+    pub fn build_cancellable<E: Evaluator + ?Sized>(
+        f: &E,
+        domain: Bounds,
+        opts: &OctreeOptions,
+        refine: &Refine,
+        progress: &(dyn Fn(u8, usize) + Sync),
+        cancel: &Cancel,
+    ) -> Result<Octree, Cancelled> {
         let max_level = opts.max_level.min(MAX_LEVEL);
         let min_level = opts.min_level.min(max_level);
         let mut tree = Octree {
@@ -680,6 +698,7 @@ impl Octree {
             if frontier.is_empty() {
                 break;
             }
+            cancel.check()?;
             let fate = |v: &criteria::Verdict, forced: bool| -> Option<Leaf> {
                 if forced && level < max_level {
                     None
@@ -704,6 +723,10 @@ impl Octree {
             let judged: Vec<(Option<Leaf>, Tape)> = frontier
                 .par_chunks(BATCH)
                 .flat_map_iter(|chunk| {
+                    if cancel.is_cancelled() {
+                        // Dropped below: the level is abandoned.
+                        return Vec::new();
+                    }
                     let cells: Vec<[Interval; 4]> = chunk
                         .iter()
                         .map(|(i, _)| {
@@ -744,6 +767,7 @@ impl Octree {
                     out
                 })
                 .collect();
+            cancel.check()?;
             evaluated += frontier.len();
             let mut next = Vec::new();
             // The programs alive after this level: the leaves' (kept to
@@ -800,10 +824,11 @@ impl Octree {
             frontier = next;
         }
         // The proof search: about ten evaluations a leaf.
+        cancel.check()?;
         let long = budget.spend(10 * ambiguous.iter().map(|(_, t)| t.long_cost()).sum::<u64>());
         tree.clear_false_ambiguity(f, opts, &ambiguous, long);
         tree.count();
-        tree
+        Ok(tree)
     }
 
     /// An ambiguous leaf at the maximal level may be ambiguous only because
