@@ -42,7 +42,7 @@
 //! assert!(report.topology.watertight);
 //! assert_eq!(report.topology.genus, vec![Some(0)]);
 //! assert_eq!(report.triangles, mesh.triangles.len());
-//! // Write it (PLY, OBJ, STL or GLB by the extension).
+//! // Write it (PLY, OBJ, STL, GLB or 3MF by the extension).
 //! let path = std::env::temp_dir().join("isoc_doc_sphere.ply");
 //! isoc::io::write_file(&mesh, &path)?;
 //! # std::fs::remove_file(&path).ok();

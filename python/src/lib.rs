@@ -258,6 +258,23 @@ impl CoreSurface {
         Ok(PyArray1::from_vec(py, out))
     }
 
+    /// Seconds the library's batch point kernel alone takes on the rows of
+    /// an `(N, 3)` array, already split into x, y and z columns, in one call
+    /// on this thread: the yardstick of `eval`'s overhead (docs/python.md).
+    fn _kernel_seconds(&self, py: Python<'_>, points: PyReadonlyArray2<'_, f64>) -> PyResult<f64> {
+        let (data, w) = rows(&points, "points")?;
+        let col = |k: usize| data.chunks_exact(w).map(|r| r[k]).collect::<Vec<f64>>();
+        let (xs, ys, zs) = (col(0), col(1), col(2));
+        let mut out = vec![0.0; xs.len()];
+        let s = &self.surface;
+        py.detach(|| {
+            let t0 = Instant::now();
+            s.point_batch(&xs, &ys, &zs, 0.0, &mut out)
+                .map(|()| t0.elapsed().as_secs_f64())
+        })
+        .map_err(|e| value_error(e.to_string()))
+    }
+
     /// (f, ∇f) at every row: `(values (N,), gradients (N, 3))`.
     fn grad<'py>(
         &self,
