@@ -23,7 +23,7 @@ use isoc::{Bounds, Cancel, CompileOptions, Surface};
 const POLL: Duration = Duration::from_millis(20);
 
 /// Points per kernel call in `eval`/`grad` (and per parallel task).
-const CHUNK: usize = 4096;
+const CHUNK: usize = 1024;
 
 /// A compiled surface (wrapped by `isoc.Surface`).
 #[pyclass(module = "isoc._isoc", frozen)]
@@ -221,10 +221,13 @@ impl CoreSurface {
         py.detach(|| {
             let chunk = |(rows, out): (&[f64], &mut [f64])| -> Result<(), String> {
                 let m = out.len();
-                let (mut xs, mut ys, mut zs) = (vec![0.0; m], vec![0.0; m], vec![0.0; m]);
+                // Columns of this chunk, on the stack (the kernel reads
+                // x, y and z as separate arrays): the copy stays in L1.
+                let (mut xs, mut ys, mut zs) = ([0.0; CHUNK], [0.0; CHUNK], [0.0; CHUNK]);
                 for (k, r) in rows.chunks_exact(w).enumerate() {
                     (xs[k], ys[k], zs[k]) = (r[0], r[1], r[2]);
                 }
+                let (xs, ys, zs) = (&xs[..m], &ys[..m], &zs[..m]);
                 if w == 3 {
                     return s
                         .point_batch(&xs, &ys, &zs, 0.0, out)
@@ -245,7 +248,7 @@ impl CoreSurface {
                 Ok(())
             };
             let parts = data.chunks(CHUNK * w).zip(out.chunks_mut(CHUNK));
-            if n > 4 * CHUNK {
+            if n > 16 * CHUNK {
                 parts
                     .collect::<Vec<_>>()
                     .into_par_iter()
@@ -261,16 +264,28 @@ impl CoreSurface {
     /// Seconds the library's batch point kernel alone takes on the rows of
     /// an `(N, 3)` array, already split into x, y and z columns, in one call
     /// on this thread: the yardstick of `eval`'s overhead (docs/python.md).
-    fn _kernel_seconds(&self, py: Python<'_>, points: PyReadonlyArray2<'_, f64>) -> PyResult<f64> {
+    /// With `chunk`, the kernel is called on consecutive slices of that
+    /// many points instead (as `eval` does, without its column copy).
+    #[pyo3(signature = (points, chunk=None))]
+    fn _kernel_seconds(
+        &self,
+        py: Python<'_>,
+        points: PyReadonlyArray2<'_, f64>,
+        chunk: Option<usize>,
+    ) -> PyResult<f64> {
         let (data, w) = rows(&points, "points")?;
         let col = |k: usize| data.chunks_exact(w).map(|r| r[k]).collect::<Vec<f64>>();
         let (xs, ys, zs) = (col(0), col(1), col(2));
         let mut out = vec![0.0; xs.len()];
         let s = &self.surface;
         py.detach(|| {
+            let c = chunk.unwrap_or(xs.len()).max(1);
             let t0 = Instant::now();
-            s.point_batch(&xs, &ys, &zs, 0.0, &mut out)
-                .map(|()| t0.elapsed().as_secs_f64())
+            for (k, o) in out.chunks_mut(c).enumerate() {
+                let r = k * c..k * c + o.len();
+                s.point_batch(&xs[r.clone()], &ys[r.clone()], &zs[r], 0.0, o)?;
+            }
+            Ok::<f64, isoc::jit::JitError>(t0.elapsed().as_secs_f64())
         })
         .map_err(|e| value_error(e.to_string()))
     }
