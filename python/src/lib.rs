@@ -230,7 +230,7 @@ impl CoreSurface {
                 let (xs, ys, zs) = (&xs[..m], &ys[..m], &zs[..m]);
                 if w == 3 {
                     return s
-                        .point_batch(&xs, &ys, &zs, 0.0, out)
+                        .point_batch(xs, ys, zs, 0.0, out)
                         .map_err(|e| e.to_string());
                 }
                 // One kernel call per run of equal t.
