@@ -42,7 +42,7 @@
 //! assert!(report.topology.watertight);
 //! assert_eq!(report.topology.genus, vec![Some(0)]);
 //! assert_eq!(report.triangles, mesh.triangles.len());
-//! // Write it (PLY, OBJ, STL or GLB by the extension).
+//! // Write it (PLY, OBJ, STL, GLB or 3MF by the extension).
 //! let path = std::env::temp_dir().join("isoc_doc_sphere.ply");
 //! isoc::io::write_file(&mesh, &path)?;
 //! # std::fs::remove_file(&path).ok();
@@ -58,6 +58,7 @@
 #![warn(missing_docs)]
 #![deny(clippy::print_stdout, clippy::print_stderr)]
 
+pub mod cancel;
 pub mod dual;
 pub mod error;
 pub mod eval;
@@ -78,6 +79,7 @@ pub mod twin;
 #[cfg(test)]
 mod testing;
 
+pub use cancel::{Cancel, Cancelled};
 pub use error::Error;
 pub use geometry::Bounds;
 pub use interval::{DecInterval, Interval};

@@ -120,9 +120,15 @@ pub struct MeshArgs {
     /// Time at which a surface in `t` is meshed.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub t: f64,
-    /// Output file: .ply, .obj, .stl or .glb (default: the input's stem .ply).
+    /// Output file: .ply, .obj, .stl, .glb or .3mf (default: the input's
+    /// stem .ply).
     #[arg(short = 'o', long = "output")]
     pub output: Option<PathBuf>,
+    /// Unit of a .3mf output: micron, millimeter, centimeter, inch, foot
+    /// or meter (one domain unit is one of these; other formats have no
+    /// unit).
+    #[arg(long, default_value = "millimeter")]
+    pub unit: String,
     /// Print statistics on stdout: `--stats json`.
     #[arg(long, value_enum)]
     pub stats: Option<StatsFormat>,
@@ -427,8 +433,9 @@ fn mesh_command(
         Some(p) => p.clone(),
         None => args.file.with_extension("ply"),
     };
-    // Fail on a bad extension before doing any work.
+    // Fail on a bad extension or unit before doing any work.
     isoc::io::Format::from_path(&output)?;
+    let unit: isoc::io::threemf::Unit = m.unit.parse().map_err(Error::Usage)?;
 
     let t0 = std::time::Instant::now();
     let surface = compile_file(args)?;
@@ -492,7 +499,7 @@ fn mesh_command(
         }
     };
     bar.finish_and_clear();
-    isoc::io::write_file(&mesh, &output)?;
+    isoc::io::write_file_in(&mesh, &output, unit)?;
 
     let r = &report;
     let summary = format!(
@@ -533,57 +540,7 @@ fn mesh_command(
         );
     }
     if m.stats == Some(StatsFormat::Json) {
-        let mut j = json!({
-            "triangles": r.triangles,
-            "vertices": r.vertices,
-            "aspect_good": num(r.aspect_good),
-            "components": r.topology.components,
-            "euler": r.topology.euler,
-            "genus": r.topology.genus,
-            "watertight": r.topology.watertight,
-            "manifold": r.topology.manifold(),
-            "nonmanifold_edges": r.topology.bad_edges(),
-            "ambiguous_cells": r.ambiguous_cells,
-            "guaranteed": r.guaranteed,
-            "max_level_reached": r.octree.max_level_reached,
-            "topology_test": if m.certify { "certify" } else { "paper" },
-            "boundary_edges": r.topology.boundary_edges,
-            "crease_vertices": r.crease_vertices,
-            "octree_nodes": r.octree.nodes,
-            "dual_cells": r.dual_cells,
-            "timings_ms": {
-                "compile": num(compile_ms),
-                "octree": num(r.timings.octree),
-                "dual": num(r.timings.dual),
-                "polygonize": num(r.timings.polygonize),
-                "smooth": num(r.timings.smooth),
-                "total": num(tol.map_or(r.timings.total, |t| t.total_ms) + compile_ms),
-            }
-        });
-        if let (Some(t), Some(obj)) = (&tol, j.as_object_mut()) {
-            obj.insert("max_deviation".into(), num(t.max_deviation));
-            obj.insert("tolerance_met".into(), json!(t.met));
-            obj.insert("tolerance_passes".into(), json!(t.passes));
-            obj.insert("kmax".into(), num(t.kmax));
-            obj.insert(
-                "adapt".into(),
-                json!({
-                    "splits": t.adapted.splits,
-                    "refused": t.adapted.refused,
-                    "collapses": t.adapted.collapses,
-                    "flips": t.adapted.flips,
-                    "rounds": t.adapted.rounds,
-                    "ms": {
-                        "size": num(t.adapted.ms[0]),
-                        "repair": num(t.adapted.ms[1]),
-                        "relax": num(t.adapted.ms[2]),
-                    },
-                }),
-            );
-            if let Some(ms) = j["timings_ms"].as_object_mut() {
-                ms.insert("adapt".into(), num(r.timings.adapt));
-            }
-        }
+        let j = mesher::report::stats_json(r, tol.as_ref(), compile_ms, m.certify);
         write(out, &(j.to_string() + "\n"))?;
     }
     Ok(())

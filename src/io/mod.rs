@@ -1,5 +1,5 @@
 //! Writing meshes: binary PLY (with normals and the red/green ambiguity
-//! colours, SPEC §3), OBJ, binary STL and GLB (glTF 2.0 binary), chosen by
+//! colours, SPEC §3), OBJ, binary STL, GLB (glTF 2.0 binary) and 3MF, chosen by
 //! the output path's extension. Files are written atomically: into a
 //! temporary file beside the target, then renamed, so a failed run never
 //! leaves a partial file.
@@ -8,6 +8,7 @@ pub mod glb;
 pub mod obj;
 pub mod ply;
 pub mod stl;
+pub mod threemf;
 
 use std::io::Write;
 use std::path::Path;
@@ -33,7 +34,7 @@ impl std::fmt::Display for WriteError {
         match self {
             WriteError::UnknownFormat(p) => write!(
                 f,
-                "{}: unknown output format; use .ply, .obj, .stl or .glb",
+                "{}: unknown output format; use .ply, .obj, .stl, .glb or .3mf",
                 p.display()
             ),
             WriteError::Io { path, error } => write!(f, "{}: {error}", path.display()),
@@ -54,6 +55,8 @@ pub enum Format {
     Stl,
     /// Binary glTF 2.0 (`.glb`, [`glb`]).
     Glb,
+    /// 3MF package (`.3mf`, [`threemf`]).
+    ThreeMf,
 }
 
 impl Format {
@@ -68,6 +71,7 @@ impl Format {
             Some("obj") => Ok(Format::Obj),
             Some("stl") => Ok(Format::Stl),
             Some("glb") => Ok(Format::Glb),
+            Some("3mf") => Ok(Format::ThreeMf),
             _ => Err(WriteError::UnknownFormat(path.to_path_buf())),
         }
     }
@@ -80,6 +84,7 @@ pub fn encode(mesh: &Mesh, format: Format, out: &mut dyn Write) -> std::io::Resu
         Format::Obj => obj::write(mesh, out),
         Format::Stl => stl::write(mesh, out),
         Format::Glb => glb::write(mesh, out),
+        Format::ThreeMf => threemf::write(mesh, out),
     }
 }
 
@@ -87,6 +92,15 @@ pub fn encode(mesh: &Mesh, format: Format, out: &mut dyn Write) -> std::io::Resu
 pub fn write_file(mesh: &Mesh, path: &Path) -> Result<(), WriteError> {
     let format = Format::from_path(path)?;
     write_atomic(path, |w| encode(mesh, format, w))
+}
+
+/// [`write_file`], with the 3MF model's unit (other formats carry no unit
+/// and ignore it).
+pub fn write_file_in(mesh: &Mesh, path: &Path, unit: threemf::Unit) -> Result<(), WriteError> {
+    match Format::from_path(path)? {
+        Format::ThreeMf => write_atomic(path, |w| threemf::write_objects(&[mesh], unit, w)),
+        format => write_atomic(path, |w| encode(mesh, format, w)),
+    }
 }
 
 /// Writes a file atomically: `fill` writes into a temporary file in the

@@ -17,8 +17,10 @@ pub mod adapt;
 pub mod chord;
 pub mod crease;
 pub mod flip;
+pub mod report;
 pub mod smooth;
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
 use crate::geometry::Bounds;
 use crate::mesh::{Mesh, quality, topology};
@@ -165,6 +167,29 @@ pub fn mesh(
     mesh_with(surface, surface.domain, opts, progress)
 }
 
+/// [`mesh`] that stops with [`Cancelled`] soon after `cancel` is
+/// cancelled: the octree polls the token per level and per batch of cells
+/// ([`Octree::build_cancellable`]), the mesher before the dual grid,
+/// extraction, creases, smoothing and the analysis.
+pub fn mesh_cancellable(
+    surface: &Surface,
+    opts: &MeshOptions,
+    progress: &(dyn Fn(Stage) + Sync),
+    cancel: &Cancel,
+) -> Result<(Mesh, MeshReport), Cancelled> {
+    let refine = Refine::default();
+    let (mesh, report, _, _) = mesh_refining(
+        surface,
+        surface.domain,
+        opts,
+        &refine,
+        true,
+        progress,
+        cancel,
+    )?;
+    Ok((mesh, report))
+}
+
 /// Meshes `f(·, opts.octree.t) = 0` for any evaluator `f` over
 /// `opts.domain` or, when that is `None`, over `domain`. `progress` is told
 /// when each stage starts (and after each octree level). The mesh depends
@@ -176,8 +201,12 @@ pub fn mesh_with<E: Evaluator + ?Sized>(
     opts: &MeshOptions,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> (Mesh, MeshReport) {
-    let (mesh, report, _, _) = mesh_refining(f, domain, opts, &Refine::default(), true, progress);
-    (mesh, report)
+    let refine = Refine::default();
+    let never = Cancel::new();
+    match mesh_refining(f, domain, opts, &refine, true, progress, &never) {
+        Ok((mesh, report, _, _)) => (mesh, report),
+        Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
+    }
 }
 
 /// [`mesh_with`] on an octree that also subdivides the cells of `refine`
@@ -191,16 +220,23 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     refine: &Refine,
     analyze: bool,
     progress: &(dyn Fn(Stage) + Sync),
-) -> (Mesh, MeshReport, Octree, Vec<bool>) {
+    cancel: &Cancel,
+) -> Result<(Mesh, MeshReport, Octree, Vec<bool>), Cancelled> {
     let start = Instant::now();
     let domain = opts.domain.unwrap_or(domain);
     let t = opts.octree.t;
     let t0 = Instant::now();
-    let tree = Octree::build_refining(f, domain, &opts.octree, refine, &|level, cells| {
-        progress(Stage::Octree { level, cells })
-    });
+    let tree = Octree::build_cancellable(
+        f,
+        domain,
+        &opts.octree,
+        refine,
+        &|level, cells| progress(Stage::Octree { level, cells }),
+        cancel,
+    )?;
     let octree_ms = ms(t0);
 
+    cancel.check()?;
     progress(Stage::Dual);
     let t0 = Instant::now();
     // Point evaluations from here on use the leaves' pruned programs.
@@ -209,9 +245,11 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     let (active, dual_cells) = extract::active_cells(&tree, &field, t, &mut values);
     let dual_ms = ms(t0);
 
+    cancel.check()?;
     progress(Stage::Polygonize);
     let t0 = Instant::now();
     let (mut mesh, ex, cell_of) = extract::extract(&tree, &field, t, &values, &active);
+    cancel.check()?;
     let mut creases = if opts.creases {
         let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
         crease::sharpen(&mut mesh, &cell_of, &bounds, &field, t)
@@ -223,6 +261,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     }
     let polygonize_ms = ms(t0);
 
+    cancel.check()?;
     progress(Stage::Smooth);
     let t0 = Instant::now();
     let moves = smooth::smooth_keeping(&mut mesh, &field, t, opts.smooth, &creases.feature);
@@ -232,6 +271,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
         chord::split_round(&mut mesh, &mut creases.feature, &field, t, tau);
     }
     let smooth_ms = ms(t0);
+    cancel.check()?;
 
     let (topo, aspect_good) = if analyze {
         (
@@ -262,7 +302,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
             total: ms(start),
         },
     };
-    (mesh, report, tree, creases.feature)
+    Ok((mesh, report, tree, creases.feature))
 }
 
 /// What [`mesh_to_tolerance`] achieved.
@@ -334,6 +374,24 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
     tolerance: f64,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> (Mesh, MeshReport, ToleranceReport) {
+    let never = Cancel::new();
+    match mesh_to_tolerance_cancellable(f, domain, opts, tolerance, progress, &never) {
+        Ok(result) => result,
+        Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
+    }
+}
+
+/// [`mesh_to_tolerance`] that stops with [`Cancelled`] soon after `cancel`
+/// is cancelled (checked in every pass as [`mesh_cancellable`] does, and
+/// after the adaptation).
+pub fn mesh_to_tolerance_cancellable<E: Evaluator + ?Sized>(
+    f: &E,
+    domain: Bounds,
+    opts: &MeshOptions,
+    tolerance: f64,
+    progress: &(dyn Fn(Stage) + Sync),
+    cancel: &Cancel,
+) -> Result<(Mesh, MeshReport, ToleranceReport), Cancelled> {
     let start = Instant::now();
     let t = opts.octree.t;
     let mut refine = Refine::default();
@@ -356,7 +414,7 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
         passes += 1;
         // The first mesh is adapted and analysed after that.
         let (mut mesh, mut report, tree, feature) =
-            mesh_refining(f, domain, &o, &refine, passes > 1, progress);
+            mesh_refining(f, domain, &o, &refine, passes > 1, progress, cancel)?;
         if passes == 1 {
             // Adapt the first mesh on the surface. Should that fail to
             // meet the tolerance (where ∇f vanishes, as at a cusp, some
@@ -379,6 +437,7 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
             report.aspect_good = quality::aspect_good(&mesh);
             report.topology = topology::analyze_in(&mesh, Some(&bounds));
             report.timings.adapt = ms(t0);
+            cancel.check()?;
             // Any later mesh is the fallback's: at the cap, smoothed.
             o.smooth = opts.smooth;
             o.octree.max_level = cap;
@@ -449,7 +508,7 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
                 total_ms: ms(start),
             };
             report.timings.total = ms(start);
-            return (mesh, report, r);
+            return Ok((mesh, report, r));
         }
         if stalled {
             let scale = if dev.is_finite() && dev > 0.0 {

@@ -83,6 +83,7 @@ use rayon::prelude::*;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::eval::{Evaluator, Reference, WHOLE, WHOLE_GRAD, prune};
 use crate::geometry::Bounds;
 use crate::interval::Interval;
@@ -773,7 +774,14 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
     /// each one keeps (a leaf) or hands its children (a subdivided cell):
     /// chunks of `BATCH` cells in parallel, each run of cells with the same
     /// tape evaluated together.
-    fn judge_level(&mut self, frontier: &[(u32, Tape)], level: u8) -> Vec<(Option<Leaf>, Tape)>
+    /// Once `cancel` is cancelled, the remaining chunks are skipped (the
+    /// caller abandons the level).
+    fn judge_level(
+        &mut self,
+        frontier: &[(u32, Tape)],
+        level: u8,
+        cancel: &Cancel,
+    ) -> Vec<(Option<Leaf>, Tape)>
     where
         E: Sync,
     {
@@ -783,7 +791,12 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
         let this = &*self;
         frontier
             .par_chunks(BATCH)
-            .flat_map_iter(|chunk| this.judge_chunk(chunk, level, long))
+            .flat_map_iter(|chunk| {
+                if cancel.is_cancelled() {
+                    return Vec::new();
+                }
+                this.judge_chunk(chunk, level, long)
+            })
             .collect()
     }
 
@@ -968,6 +981,23 @@ impl Octree {
         refine: &Refine,
         progress: &(dyn Fn(u8, usize) + Sync),
     ) -> Octree {
+        match Octree::build_cancellable(f, domain, opts, refine, progress, &Cancel::new()) {
+            Ok(tree) => tree,
+            Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
+        }
+    }
+
+    /// [`Octree::build_refining`] that stops with [`Cancelled`] soon after
+    /// `cancel` is cancelled: the token is polled before each level, before
+    /// each batch of cells and before the proof search.
+    pub fn build_cancellable<E: Evaluator + ?Sized>(
+        f: &E,
+        domain: Bounds,
+        opts: &OctreeOptions,
+        refine: &Refine,
+        progress: &(dyn Fn(u8, usize) + Sync),
+        cancel: &Cancel,
+    ) -> Result<Octree, Cancelled> {
         let (mut b, root) = Builder::new(f, domain, opts, refine);
         let mut frontier: Vec<(u32, Tape)> = vec![(0, root)];
         let mut evaluated = 0;
@@ -975,12 +1005,15 @@ impl Octree {
             if frontier.is_empty() {
                 break;
             }
-            let judged = b.judge_level(&frontier, level);
+            cancel.check()?;
+            let judged = b.judge_level(&frontier, level, cancel);
+            cancel.check()?;
             evaluated += frontier.len();
             frontier = b.grow(&frontier, judged, level);
             progress(level, evaluated);
         }
-        b.finish()
+        cancel.check()?;
+        Ok(b.finish())
     }
 
     /// An ambiguous leaf at the maximal level may be ambiguous only because
