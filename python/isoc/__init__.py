@@ -630,11 +630,12 @@ class Surface:
         self,
         level: Optional[int] = None,
         tolerance: Optional[float] = None,
-        kmax: float = 1.0,
+        kmax: Optional[float] = None,
         smooth: int = 3,
         creases: bool = True,
         threads: Optional[int] = None,
         *,
+        coarse: bool = False,
         min_level: int = 3,
         certify: bool = False,
         prune: bool = True,
@@ -648,13 +649,16 @@ class Surface:
         ----------
         level : int, optional
             Maximal octree level (2^level cells per axis at most); default
-            7, or 10 when `tolerance` is given.
+            7, or 10 when `tolerance` is given. Alone, it is faithful: the
+            chord error stays within about 3.5 % of a level cell (as
+            ``isoc mesh --level``).
         tolerance : float, optional
             Refine until every measured triangle point lies within this
             distance (domain units) of the surface, `level` being the cap.
         kmax : float, optional
             Geometry criterion: subdivide while the normals' spread exceeds
-            it (default 1.0; 0 refines uniformly).
+            it (1.0 when not given; 0 refines uniformly). Given, it replaces
+            the faithful default, as `coarse` does.
         smooth : int, optional
             Smoothing passes: edge flips and tangential relaxation onto the
             surface (default 3).
@@ -663,6 +667,10 @@ class Surface:
             True.
         threads : int, optional
             Worker threads (a local pool); default: all cores.
+        coarse : bool, optional
+            The adaptive minimum: the paper's topology and geometry criteria
+            only, without the faithful chord criterion (``--coarse``);
+            default False.
         min_level : int, optional
             Uniform subdivision level to start from (default 3).
         certify : bool, optional
@@ -709,7 +717,8 @@ class Surface:
         core = self._core.mesh(
             int(level),
             None if tolerance is None else float(tolerance),
-            float(kmax),
+            None if kmax is None else float(kmax),
+            bool(coarse),
             int(min_level),
             int(smooth),
             bool(creases),

@@ -408,14 +408,15 @@ impl CoreSurface {
     }
 
     /// Meshes the surface (see `isoc.Surface.mesh`).
-    #[pyo3(signature = (level, tolerance, kmax, min_level, smooth, creases, certify, prune, t, domain, threads, progress))]
+    #[pyo3(signature = (level, tolerance, kmax, coarse, min_level, smooth, creases, certify, prune, t, domain, threads, progress))]
     #[allow(clippy::too_many_arguments)]
     fn mesh(
         &self,
         py: Python<'_>,
         level: u8,
         tolerance: Option<f64>,
-        kmax: f64,
+        kmax: Option<f64>,
+        coarse: bool,
         min_level: u8,
         smooth: usize,
         creases: bool,
@@ -429,8 +430,10 @@ impl CoreSurface {
         if level > 20 {
             return Err(value_error(format!("level {level}: at most 20")));
         }
-        if !(kmax.is_finite() && kmax >= 0.0) {
-            return Err(value_error(format!("kmax {kmax}: must be a number >= 0")));
+        if let Some(k) = kmax
+            && !(k.is_finite() && k >= 0.0)
+        {
+            return Err(value_error(format!("kmax {k}: must be a number >= 0")));
         }
         if let Some(d) = tolerance
             && !(d.is_finite() && d > 0.0)
@@ -469,7 +472,7 @@ impl CoreSurface {
             octree: OctreeOptions {
                 max_level: level,
                 min_level,
-                kmax,
+                kmax: kmax.unwrap_or(OctreeOptions::default().kmax),
                 test: if certify {
                     TopologyTest::Certify
                 } else {
@@ -477,6 +480,11 @@ impl CoreSurface {
                 },
                 t,
                 prune,
+                // Faithful `level` unless a criterion of the caller's
+                // replaces it (SPEC §2, as `isoc mesh`).
+                chord: OctreeOptions::default()
+                    .chord
+                    .filter(|_| !coarse && kmax.is_none() && tolerance.is_none()),
             },
             smooth,
             domain,
