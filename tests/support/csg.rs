@@ -217,6 +217,20 @@ const SOLIDS: [Prim; 6] = [
     Prim::Torus,
 ];
 
+/// The box of half-sides `half` about the origin of the coordinates `c`:
+/// `max(|c₀| − h₀, |c₁| − h₁, |c₂| − h₂)`.
+fn box_sdf(c: [&str; 3], half: [f64; 3]) -> String {
+    format!(
+        "max(abs({}) - {}, abs({}) - {}, abs({}) - {})",
+        c[0],
+        num(half[0]),
+        c[1],
+        num(half[1]),
+        c[2],
+        num(half[2])
+    )
+}
+
 /// A local frame: the names of its three coordinates.
 #[derive(Clone)]
 struct Frame([String; 3]);
@@ -427,15 +441,7 @@ impl Builder {
                 let r = uniform(&mut self.rng, 0.03, 0.2);
                 let gap = gaps[below(&mut self.rng, gaps.len())];
                 let f = self.random_frame(centre);
-                let bx = format!(
-                    "max(abs({}) - {}, abs({}) - {}, abs({}) - {})",
-                    f.0[0],
-                    num(a),
-                    f.0[1],
-                    num(b),
-                    f.0[2],
-                    num(d)
-                );
+                let bx = box_sdf([&f.0[0], &f.0[1], &f.0[2]], [a, b, d]);
                 let off = DVec3::new(
                     uniform(&mut self.rng, -0.5, 0.5) * a,
                     uniform(&mut self.rng, -0.5, 0.5) * b,
@@ -457,15 +463,7 @@ impl Builder {
                 let (a, b, d) = (dy(&mut self.rng), dy(&mut self.rng), dy(&mut self.rng));
                 let (a2, b2, d2) = (dy(&mut self.rng), dy(&mut self.rng), dy(&mut self.rng));
                 let f = self.random_frame(centre);
-                let b1 = format!(
-                    "max(abs({}) - {}, abs({}) - {}, abs({}) - {})",
-                    f.0[0],
-                    num(a),
-                    f.0[1],
-                    num(b),
-                    f.0[2],
-                    num(d)
-                );
+                let b1 = box_sdf([&f.0[0], &f.0[1], &f.0[2]], [a, b, d]);
                 // The second box's face u = a − 2·a2·inside lies on the
                 // first's face u = a: outside it (union) or inside it
                 // (a notch).
@@ -477,15 +475,7 @@ impl Builder {
                     b - b2
                 };
                 let c = f.shifted(DVec3::new(shift, lateral, 0.0));
-                let b2e = format!(
-                    "max(abs({}) - {}, abs({}) - {}, abs({}) - {})",
-                    c[0],
-                    num(a2),
-                    c[1],
-                    num(b2),
-                    c[2],
-                    num(d2)
-                );
+                let b2e = box_sdf([&c[0], &c[1], &c[2]], [a2, b2, d2]);
                 let (p, q) = (self.bind("t", b1), self.bind("t", b2e));
                 let e = match below(&mut self.rng, 3) {
                     0 => format!("min({p}, {q})"),
@@ -564,14 +554,9 @@ impl Builder {
                 let (x0, y0, z0) = (g(&mut self.rng), g(&mut self.rng), g(&mut self.rng));
                 let h = |rng: &mut Rng| (1 + below(rng, 4)) as f64 / 16.0;
                 let (a, b, d) = (h(&mut self.rng), h(&mut self.rng), h(&mut self.rng));
-                let e = format!(
-                    "max(abs({}) - {}, abs({}) - {}, abs({}) - {})",
-                    minus("x", x0),
-                    num(a),
-                    minus("y", y0),
-                    num(b),
-                    minus("z", z0),
-                    num(d)
+                let e = box_sdf(
+                    [&minus("x", x0), &minus("y", y0), &minus("z", z0)],
+                    [a, b, d],
                 );
                 Part {
                     name: self.bind("n", e),
@@ -599,14 +584,9 @@ impl Builder {
                 let t = 1.0 / 128.0 * uniform(&mut self.rng, 0.4, 1.5);
                 let s = uniform(&mut self.rng, 0.1, 0.3);
                 let f = self.random_frame(centre);
-                let e = format!(
-                    "max(abs({}) - {}, abs({}) - {}, abs({}) - {})",
-                    f.0[0],
-                    num(s),
-                    f.0[1],
-                    num(s * uniform(&mut self.rng, 0.3, 1.0)),
-                    f.0[2],
-                    num(t)
+                let e = box_sdf(
+                    [&f.0[0], &f.0[1], &f.0[2]],
+                    [s, s * uniform(&mut self.rng, 0.3, 1.0), t],
                 );
                 Part {
                     name: self.bind("n", e),
