@@ -49,10 +49,10 @@ fn stages(c: &mut Criterion) {
             });
             let mut values = CornerValues::at_leaves(&tree, &s, 0.0);
             let (active, _) = extract::active_cells(&tree, &s, 0.0, &mut values);
-            g.bench_function(id("polygonize"), |b| {
-                b.iter(|| black_box(extract::extract(&tree, &s, 0.0, &values, &active)))
-            });
-            let (mesh, _, _) = extract::extract(&tree, &s, 0.0, &values, &active);
+            let never = isoc::Cancel::new();
+            let extract = || extract::extract(&tree, &s, 0.0, &values, &active, &never);
+            g.bench_function(id("polygonize"), |b| b.iter(|| black_box(extract())));
+            let (mesh, _, _) = extract().expect("never cancelled");
             g.bench_function(id("smooth"), |b| {
                 b.iter(|| {
                     let mut m = mesh.clone();

@@ -24,6 +24,7 @@ import json
 import math
 import numbers
 import os
+import re
 from typing import Any, Callable, Iterator, NamedTuple, Optional, Sequence, Union
 
 import numpy as np
@@ -47,6 +48,7 @@ __all__ = [
     "log",
     "max",
     "min",
+    "param",
     "pi",
     "pow",
     "sin",
@@ -120,24 +122,35 @@ class Expr:
 
     ``+ - * / **``, unary ``-``, ``abs()`` and the functions of this module
     (``isoc.sqrt``, ``isoc.min``, …) build ``.iso`` text; Python numbers and
-    numpy scalars mix in freely. ``str(expr)`` is the text, and
-    ``isoc.compile(expr, domain=...)`` compiles it (to the same IR as the
-    same formula written in a ``.iso`` file).
+    numpy scalars mix in freely, and :func:`param` names a value to set at
+    compile time. ``str(expr)`` is the text, ``expr.params`` the params it
+    uses with their defaults, and ``isoc.compile(expr, domain=...)``
+    compiles it (to the same IR as the same formula written in a ``.iso``
+    file with those ``param`` lines).
 
     Examples
     --------
     >>> from isoc import x, y, z
     >>> str((x**2 + y**2 + z**2) ** 0.5 - 1)
     '(x^2 + y^2 + z^2)^0.5 - 1'
+    >>> r = isoc.param("r", 1.0)
+    >>> (x**2 + y**2 + z**2 - r**2).params
+    {'r': 1.0}
     """
 
-    __slots__ = ("_text", "_prec")
+    __slots__ = ("_text", "_prec", "_params")
     # Make numpy scalars and arrays defer to Expr's reflected operators.
     __array_ufunc__ = None
 
-    def __init__(self, text: str, prec: int = _ATOM) -> None:
+    def __init__(self, text: str, prec: int = _ATOM, params: Sequence[tuple[str, float]] = ()) -> None:
         self._text = text
         self._prec = prec
+        self._params = tuple(sorted(params))
+
+    @property
+    def params(self) -> dict:
+        """The params the expression uses, with their default values."""
+        return dict(self._params)
 
     def __str__(self) -> str:
         return self._text
@@ -175,7 +188,7 @@ class Expr:
         # Left-associative: the right operand of - and / needs parentheses at
         # equal precedence.
         right = prec + 1 if op in ("-", "/") else prec
-        return Expr(f"{a._wrap(prec)} {op} {b._wrap(right)}", prec)
+        return Expr(f"{a._wrap(prec)} {op} {b._wrap(right)}", prec, _merged(a, b))
 
     def __add__(self, o: Any) -> "Expr":
         return self._bin(o, "+", _ADD)
@@ -203,7 +216,7 @@ class Expr:
 
     def _power(self, base: "Expr", exp: "Expr") -> "Expr":
         # ^ is right-associative and binds tighter than unary minus.
-        return Expr(f"{base._wrap(_POW + 1)}^{exp._wrap(_POW)}", _POW)
+        return Expr(f"{base._wrap(_POW + 1)}^{exp._wrap(_POW)}", _POW, _merged(base, exp))
 
     def __pow__(self, o: Any) -> "Expr":
         try:
@@ -218,7 +231,7 @@ class Expr:
             return NotImplemented
 
     def __neg__(self) -> "Expr":
-        return Expr(f"-{self._wrap(_NEG)}", _NEG)
+        return Expr(f"-{self._wrap(_NEG)}", _NEG, self._params)
 
     def __pos__(self) -> "Expr":
         return self
@@ -227,8 +240,63 @@ class Expr:
         return _call("abs", self)
 
 
+def _merged(*exprs: Expr) -> tuple:
+    """The params of several expressions; one name, one default."""
+    seen: dict = {}
+    for e in exprs:
+        for name, value in e._params:
+            if seen.get(name, value) != value:
+                raise ValueError(f"param {name!r} has two defaults, {seen[name]!r} and {value!r}")
+            seen[name] = value
+    return tuple(seen.items())
+
+
 def _call(name: str, *args: Any) -> Expr:
-    return Expr(f"{name}({', '.join(Expr.lift(a)._text for a in args)})", _ATOM)
+    lifted = [Expr.lift(a) for a in args]
+    return Expr(f"{name}({', '.join(a._text for a in lifted)})", _ATOM, _merged(*lifted))
+
+
+_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+_RESERVED = {"x", "y", "z", "t", "pi", "domain", "let", "param", "fn", "surface"}
+
+
+def param(name: str, default: Any) -> Expr:
+    """A named parameter: a number chosen when the expression is compiled.
+
+    The expression compiles to ``.iso`` text with a ``param name =
+    default;`` line, so ``isoc.compile(expr, params={name: value})`` and
+    ``Surface.params`` work as for a ``.iso`` file's params.
+
+    Parameters
+    ----------
+    name : str
+        An identifier (letters, digits, ``_``; not ``x, y, z, t, pi`` nor a
+        keyword).
+    default : float
+        Its value unless the compile call overrides it (finite).
+
+    Returns
+    -------
+    Expr
+
+    Raises
+    ------
+    ValueError
+        A name that is not an identifier or is reserved, or a default that
+        is not finite.
+
+    Examples
+    --------
+    >>> from isoc import x, y, z
+    >>> r = isoc.param("r", 1)
+    >>> s = isoc.compile(x**2 + y**2 + z**2 - r**2, domain=(-2, 2), params={"r": 1.5})
+    >>> s.params
+    {'r': 1.5}
+    """
+    if not isinstance(name, str) or not _IDENT.match(name) or name in _RESERVED:
+        raise ValueError(f"a param's name must be an identifier other than x, y, z, t, pi and the keywords, got {name!r}")
+    value = float(_number_text(default))
+    return Expr(name, _ATOM, ((name, value),))
 
 
 x = Expr("x")
@@ -784,9 +852,10 @@ class Surface:
 def _source_of(source: Union[str, Expr], domain: Optional[list[float]]) -> tuple[str, Optional[list[float]]]:
     if isinstance(source, Expr):
         d = domain if domain is not None else [-1.0, 1.0] * 3
+        params = "".join(f"param {n} = {v!r};\n" for n, v in source._params)
         text = (
             f"domain [{d[0]!r}, {d[1]!r}], [{d[2]!r}, {d[3]!r}], [{d[4]!r}, {d[5]!r}];\n"
-            f"surface {source};\n"
+            f"{params}surface {source};\n"
         )
         return text, None
     if isinstance(source, str):
@@ -812,7 +881,8 @@ def compile(  # noqa: A001 (the package's verb)
         ``(a, b)`` for [a, b]³ or ``(a, b, c, d, e, f)``; replaces the
         file's ``domain``. An expression's default is [-1, 1]³.
     params : dict, optional
-        Overrides of the file's ``param`` values, ``{"r": 1.5}``.
+        Overrides of the ``param`` values of the file or of the expression
+        (:func:`param`), ``{"r": 1.5}``.
     file : str, optional
         Name used in error messages (a name ending in ``.vm`` reads a
         Fidget model).
@@ -839,8 +909,6 @@ def compile(  # noqa: A001 (the package's verb)
     d = _domain(domain)
     text, d = _source_of(source, d)
     p = [(str(k), float(v)) for k, v in (params or {}).items()]
-    if isinstance(source, Expr) and p:
-        raise ValueError("params apply to .iso text; an expression has none")
     core = _isoc.CoreSurface.compile(text, file, d, p)
     return Surface(core, text)
 

@@ -584,8 +584,10 @@ impl CoreMesh {
 
 /// Twinned meshes frame by frame (wrapped by `isoc.Surface.animate`): a
 /// worker thread owns the tracker; each `advance` asks it for one frame.
+/// The tracker polls `cancel` (Ctrl-C, `close`, the object dropped).
 #[pyclass(module = "isoc._isoc")]
 struct CoreAnimation {
+    cancel: Cancel,
     ask: Option<mpsc::Sender<f64>>,
     answer: Mutex<mpsc::Receiver<Result<(isoc::Mesh, String), String>>>,
     worker: Option<std::thread::JoinHandle<()>>,
@@ -615,9 +617,11 @@ impl CoreAnimation {
         }
         let (ask_tx, ask_rx) = mpsc::channel::<f64>();
         let (ans_tx, ans_rx) = mpsc::channel();
+        let cancel = Cancel::new();
+        let token = cancel.clone();
         let worker = std::thread::spawn(move || {
             let frame = |tr: &isoc::Tracker<'_>, rep: String| (tr.geometric().clone(), rep);
-            let mut tracker = match isoc::Tracker::new(&s, t0, &opts) {
+            let mut tracker = match isoc::Tracker::new_cancellable(&s, t0, &opts, &token) {
                 Ok(tr) => tr,
                 Err(e) => {
                     let _ = ans_tx.send(Err(e.to_string()));
@@ -640,6 +644,7 @@ impl CoreAnimation {
             }
         });
         CoreAnimation {
+            cancel,
             ask: Some(ask_tx),
             answer: Mutex::new(ans_rx),
             worker: Some(worker),
@@ -647,8 +652,8 @@ impl CoreAnimation {
     }
 
     /// The frame at `t` (the tracker advanced to it). Waits without the
-    /// GIL; Ctrl-C raises at once (the frame under way finishes on the
-    /// worker, which then stops).
+    /// GIL; Ctrl-C cancels the tracker, waits for the worker to stop (at
+    /// the tracker's next checkpoint) and raises.
     fn next_frame(&mut self, py: Python<'_>, t: f64) -> PyResult<CoreMesh> {
         let ask = self
             .ask
@@ -686,7 +691,7 @@ impl CoreAnimation {
                 }
                 Err(mpsc::RecvTimeoutError::Timeout) => {
                     if let Err(e) = py.check_signals() {
-                        self.close();
+                        self.close(py);
                         return Err(e);
                     }
                 }
@@ -694,16 +699,23 @@ impl CoreAnimation {
         }
     }
 
-    /// Stops the worker (it finishes the frame under way, if any).
-    fn close(&mut self) {
+    /// Cancels the frame under way, if any, and waits (without the GIL)
+    /// for the worker to end.
+    fn close(&mut self, py: Python<'_>) {
+        self.cancel.cancel();
         self.ask = None;
-        // Detached: the worker ends by itself once the channel is closed.
-        self.worker.take();
+        if let Some(worker) = self.worker.take() {
+            // A worker that panicked has nothing left to stop.
+            let _ = py.detach(|| worker.join());
+        }
     }
 }
 
 impl Drop for CoreAnimation {
     fn drop(&mut self) {
+        // The worker stops at its next checkpoint and ends by itself once
+        // the channel is closed.
+        self.cancel.cancel();
         self.ask = None;
     }
 }

@@ -56,3 +56,35 @@ def test_builder_refuses_nonsense():
     assert isoc.min(1, 2) == 1 and isoc.abs(-3) == 3
     with pytest.raises(ValueError):
         isoc.compile(x, params={"r": 1})
+
+
+def test_params_of_an_expression_are_the_files_params():
+    R, r = isoc.param("R", 1), isoc.param("r", 0.4)
+    torus = (isoc.sqrt(x**2 + y**2) - R) ** 2 + z**2 - r**2
+    assert torus.params == {"R": 1.0, "r": 0.4}
+    assert "param R = 1.0;" in isoc._source_of(torus, None)[0]
+    for overrides in (None, {"r": 0.3}, {"R": 1.2, "r": 0.25}):
+        built = isoc.compile(torus, domain=(-1.6, 1.6), params=overrides)
+        written = isoc.load(ROOT / "corpus" / "torus.iso", params=overrides)
+        assert built.ir == written.ir, overrides
+        assert built.params == written.params
+        pts = np.random.default_rng(3).uniform(-1.6, 1.6, (64, 3))
+        np.testing.assert_array_equal(built.eval(pts), written.eval(pts))
+    # The source prints the param lines and compiles to the same IR.
+    s = isoc.compile(torus, domain=(-1.6, 1.6), params={"r": 0.3})
+    assert isoc.compile(str(s), params={"r": 0.3}).ir == s.ir
+
+
+def test_params_refuse_nonsense():
+    for name in ("x", "pi", "surface", "2r", "r-1", "", 3):
+        with pytest.raises(ValueError):
+            isoc.param(name, 1.0)
+    with pytest.raises(ValueError):
+        isoc.param("r", float("inf"))
+    with pytest.raises(ValueError):
+        isoc.param("r", 1) + isoc.param("r", 2)
+    # One name with one default, used twice, is one param.
+    r = isoc.param("r", 2)
+    assert (r * x + isoc.sin(r)).params == {"r": 2.0}
+    with pytest.raises(ValueError):
+        isoc.compile(x + r, params={"q": 1})

@@ -105,7 +105,10 @@ pub fn write(mesh: &Mesh, out: &mut dyn Write) -> std::io::Result<()> {
     write_objects(&[mesh], Unit::Millimeter, out)
 }
 
-/// Writes a 3MF package with one object per mesh, in `unit`.
+/// Writes a 3MF package with one object per mesh that has triangles, in
+/// `unit`. The core specification requires a mesh object to have
+/// triangles, so an empty mesh becomes no object: a package of only empty
+/// meshes has empty `<resources>` and `<build>` (a valid, empty model).
 pub fn write_objects(meshes: &[&Mesh], unit: Unit, out: &mut dyn Write) -> std::io::Result<()> {
     // The zip writer seeks back to patch each entry's header, so the
     // package is assembled in memory (compressed) and copied to `out`.
@@ -138,6 +141,11 @@ fn model_xml(meshes: &[&Mesh], unit: Unit, w: &mut dyn Write) -> std::io::Result
     )?;
     writeln!(w, r#" <metadata name="Application">isoc</metadata>"#)?;
     writeln!(w, " <resources>")?;
+    let meshes: Vec<&Mesh> = meshes
+        .iter()
+        .copied()
+        .filter(|m| !m.triangles.is_empty())
+        .collect();
     for (k, mesh) in meshes.iter().enumerate() {
         writeln!(w, r#"  <object id="{}" type="model">"#, k + 1)?;
         writeln!(w, "   <mesh>\n    <vertices>")?;

@@ -34,6 +34,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::mesh::Mesh;
@@ -51,23 +52,26 @@ const REACH: f64 = 0.25;
 /// Splits, in up to [`ROUNDS`] rounds, the edges of `mesh` whose midpoint
 /// stands farther than `tau` from `f(·, t) = 0`; `feature` flags the
 /// crease vertices (extended with `false` for the new ones). Returns how
-/// many edges were split. See the module doc.
+/// many edges were split, or [`Cancelled`] when `cancel` was cancelled
+/// before a round (the rounds done are kept). See the module doc.
 pub fn split_edges<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     feature: &mut Vec<bool>,
     f: &E,
     t: f64,
     tau: f64,
-) -> usize {
+    cancel: &Cancel,
+) -> Result<usize, Cancelled> {
     let mut total = 0;
     for _ in 0..ROUNDS {
+        cancel.check()?;
         let n = split_round(mesh, feature, f, t, tau);
         if n == 0 {
             break;
         }
         total += n;
     }
-    total
+    Ok(total)
 }
 
 /// One round of [`split_edges`]; returns how many edges it split.

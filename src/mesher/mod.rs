@@ -168,26 +168,14 @@ pub fn mesh(
 }
 
 /// [`mesh`] that stops with [`Cancelled`] soon after `cancel` is
-/// cancelled: the octree polls the token per level and per batch of cells
-/// ([`Octree::build_cancellable`]), the mesher before the dual grid,
-/// extraction, creases, smoothing and the analysis.
+/// cancelled: [`mesh_with_cancellable`] on the surface.
 pub fn mesh_cancellable(
     surface: &Surface,
     opts: &MeshOptions,
     progress: &(dyn Fn(Stage) + Sync),
     cancel: &Cancel,
 ) -> Result<(Mesh, MeshReport), Cancelled> {
-    let refine = Refine::default();
-    let (mesh, report, _, _) = mesh_refining(
-        surface,
-        surface.domain,
-        opts,
-        &refine,
-        true,
-        progress,
-        cancel,
-    )?;
-    Ok((mesh, report))
+    mesh_with_cancellable(surface, surface.domain, opts, progress, cancel)
 }
 
 /// Meshes `f(·, opts.octree.t) = 0` for any evaluator `f` over
@@ -201,12 +189,27 @@ pub fn mesh_with<E: Evaluator + ?Sized>(
     opts: &MeshOptions,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> (Mesh, MeshReport) {
-    let refine = Refine::default();
-    let never = Cancel::new();
-    match mesh_refining(f, domain, opts, &refine, true, progress, &never) {
-        Ok((mesh, report, _, _)) => (mesh, report),
+    match mesh_with_cancellable(f, domain, opts, progress, &Cancel::new()) {
+        Ok(done) => done,
         Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
     }
+}
+
+/// [`mesh_with`] that stops with [`Cancelled`] soon after `cancel` is
+/// cancelled. Every stage polls the token: the octree per level and per
+/// batch of cells ([`Octree::build_cancellable`]), extraction per task of
+/// cells, chord refinement per round, smoothing per pass and colour
+/// class, and the mesher between stages; a cancelled run returns nothing.
+pub fn mesh_with_cancellable<E: Evaluator + ?Sized>(
+    f: &E,
+    domain: Bounds,
+    opts: &MeshOptions,
+    progress: &(dyn Fn(Stage) + Sync),
+    cancel: &Cancel,
+) -> Result<(Mesh, MeshReport), Cancelled> {
+    let refine = Refine::default();
+    let (mesh, report, _, _) = mesh_refining(f, domain, opts, &refine, true, progress, cancel)?;
+    Ok((mesh, report))
 }
 
 /// [`mesh_with`] on an octree that also subdivides the cells of `refine`
@@ -248,7 +251,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     cancel.check()?;
     progress(Stage::Polygonize);
     let t0 = Instant::now();
-    let (mut mesh, ex, cell_of) = extract::extract(&tree, &field, t, &values, &active);
+    let (mut mesh, ex, cell_of) = extract::extract(&tree, &field, t, &values, &active, cancel)?;
     cancel.check()?;
     let mut creases = if opts.creases {
         let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
@@ -257,14 +260,15 @@ fn mesh_refining<E: Evaluator + ?Sized>(
         crease::Creases::default()
     };
     if let Some(tau) = opts.octree.chord_tolerance(domain) {
-        chord::split_edges(&mut mesh, &mut creases.feature, &field, t, tau);
+        chord::split_edges(&mut mesh, &mut creases.feature, &field, t, tau, cancel)?;
     }
     let polygonize_ms = ms(t0);
 
     cancel.check()?;
     progress(Stage::Smooth);
     let t0 = Instant::now();
-    let moves = smooth::smooth_keeping(&mut mesh, &field, t, opts.smooth, &creases.feature);
+    let moves =
+        smooth::smooth_keeping(&mut mesh, &field, t, opts.smooth, &creases.feature, cancel)?;
     if let Some(tau) = opts.octree.chord_tolerance(domain) {
         // Relaxation moves vertices along the surface and may stretch an
         // edge past the tolerance again: one more round on the result.

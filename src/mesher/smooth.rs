@@ -56,6 +56,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::flip::Flips;
+use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::mesh::quality::{aspect, aspect_ratio};
@@ -204,21 +205,28 @@ fn colour_classes(mesh: &Mesh, star: &Star) -> Vec<Vec<u32>> {
 /// Runs `passes` smoothing passes on the surface `f(·, t) = 0`; returns how
 /// many moves were accepted.
 pub fn smooth<E: Evaluator + ?Sized>(mesh: &mut Mesh, f: &E, t: f64, passes: usize) -> usize {
-    smooth_keeping(mesh, f, t, passes, &[])
+    match smooth_keeping(mesh, f, t, passes, &[], &Cancel::new()) {
+        Ok(moves) => moves,
+        Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
+    }
 }
 
 /// [`smooth`], keeping the vertices flagged in `keep` (crease points,
 /// [`super::crease`]) where they are and every edge between two of them
-/// unflipped (a shorter `keep` flags nothing past its end).
+/// unflipped (a shorter `keep` flags nothing past its end). Stops with
+/// [`Cancelled`] soon after `cancel` is cancelled (polled per vertex of
+/// each colour class); the mesh is then valid but partly smoothed (every move made is
+/// a safe one) and its moved vertices' normals are not yet refreshed.
 pub fn smooth_keeping<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     f: &E,
     t: f64,
     passes: usize,
     keep: &[bool],
-) -> usize {
+    cancel: &Cancel,
+) -> Result<usize, Cancelled> {
     if passes == 0 || mesh.triangles.is_empty() {
-        return 0;
+        return Ok(0);
     }
     let mut accepted = 0;
     let mut flips = Flips::new(mesh);
@@ -234,15 +242,17 @@ pub fn smooth_keeping<E: Evaluator + ?Sized>(
         let mut aspects = flips.aspects().to_vec();
         let mut moves = 0;
         for class in colour_classes(mesh, &star) {
+            cancel.check()?;
             let candidates: Vec<(u32, DVec3, DVec3)> = class
                 .par_iter()
-                .filter(|&&v| !pinned[v as usize])
+                .filter(|&&v| !pinned[v as usize] && !cancel.is_cancelled())
                 .filter_map(|&v| {
                     let (q, reach) = target(mesh, &star, &aspects, v as usize)?;
                     let (p, g) = project_along(f, t, q, 0.5 * reach)?;
                     Some((v, p, g))
                 })
                 .collect();
+            cancel.check()?;
             for (v, p, g) in candidates {
                 if move_is_safe(mesh, &star, v as usize, p, g.normalize_or_zero()) {
                     mesh.positions[v as usize] = p;
@@ -270,5 +280,5 @@ pub fn smooth_keeping<E: Evaluator + ?Sized>(
             mesh.normals[v] = g.normalize();
         }
     }
-    accepted
+    Ok(accepted)
 }

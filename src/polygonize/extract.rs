@@ -41,6 +41,7 @@ use rayon::prelude::*;
 use super::mc33::{self, EDGE_CORNERS, Vertex};
 use std::collections::HashMap;
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::dual::{self, Corner, DualCell};
 use crate::eval::Evaluator;
 use crate::eval::sample::{normals_at, values_at};
@@ -213,14 +214,17 @@ pub fn active_cells<E: Evaluator + ?Sized>(
 
 /// Polygonises the active dual cells of the octree of `f(·, t)`. See the
 /// module doc. Also returns, per triangle, the index in `active` of its
-/// dual cell (the triangles of one cell are consecutive).
+/// dual cell (the triangles of one cell are consecutive). Stops with
+/// [`Cancelled`] when `cancel` is cancelled (polled per task of cells and
+/// before the vertices are placed).
 pub fn extract<E: Evaluator + ?Sized>(
     tree: &Octree,
     f: &E,
     t: f64,
     values: &CornerValues,
     active: &[DualCell],
-) -> (Mesh, ExtractStats, Vec<u32>) {
+    cancel: &Cancel,
+) -> Result<(Mesh, ExtractStats, Vec<u32>), Cancelled> {
     let nodes = &tree.nodes;
     let mut stats = ExtractStats {
         active_cells: active.len(),
@@ -232,6 +236,9 @@ pub fn extract<E: Evaluator + ?Sized>(
         .enumerate()
         .map(|(chunk, cells)| {
             let mut out = CellsOutput::default();
+            if cancel.is_cancelled() {
+                return out;
+            }
             for (i, cell) in cells.iter().enumerate() {
                 let ci = (chunk * CELLS_PER_TASK + i) as u32;
                 polygonize_cell(tree, ci, cell, values, &mut out);
@@ -239,6 +246,7 @@ pub fn extract<E: Evaluator + ?Sized>(
             out
         })
         .collect();
+    cancel.check()?;
     stats.dropped_degenerate = outputs.iter().map(|o| o.dropped).sum();
     let cell_of: Vec<u32> = outputs
         .iter()
@@ -315,7 +323,7 @@ pub fn extract<E: Evaluator + ?Sized>(
         triangles: slots.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
     };
     mesh.normals = normals_at(f, t, &mesh.positions);
-    (mesh, stats, cell_of)
+    Ok((mesh, stats, cell_of))
 }
 
 /// Polygonises active dual cell number `ci` into `out`.

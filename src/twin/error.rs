@@ -49,6 +49,15 @@ pub enum TrackError {
     },
     /// A sharpness angle `alpha_deg` that is not finite.
     Alpha(f64),
+    /// The tracker's [`crate::cancel::Cancel`] token was cancelled (see
+    /// "Cancelling" in [`super`]).
+    Cancelled,
+}
+
+impl From<crate::cancel::Cancelled> for TrackError {
+    fn from(_: crate::cancel::Cancelled) -> TrackError {
+        TrackError::Cancelled
+    }
 }
 
 impl std::fmt::Display for TrackError {
@@ -80,6 +89,7 @@ impl std::fmt::Display for TrackError {
                 "dt, max_move must be positive, eps_e ≥ 0 (got {dt}, {max_move}, {eps_e})"
             ),
             TrackError::Alpha(a) => write!(f, "alpha must be finite, got {a}"),
+            TrackError::Cancelled => f.write_str("cancelled"),
         }
     }
 }

@@ -39,6 +39,24 @@
 //!    (it is the paper's "before the next quasi-static step");
 //! 6. **rebuilds the geometric mesh** ([`geometric`], §3).
 //!
+//! # Cancelling
+//!
+//! A tracker built with a [`Cancel`] token ([`Tracker::new_cancellable`])
+//! polls it while it builds its first mesh and, in each frame, before the
+//! topology watch, inside every robust mesh the watch asks for (per octree
+//! level and batch, per extraction task) and inside the remeshing sweeps
+//! that turn a robust mesh into a mechanical one (every few thousand
+//! edges), and last before the first change to its state. A cancelled construction returns [`TrackError::Cancelled`];
+//! a cancelled [`Tracker::advance`] returns it too and leaves the tracker
+//! at its last frame, unchanged: with a fresh token
+//! ([`Tracker::set_cancel`]) a later `advance` works as if the cancelled
+//! one had not been asked. Once the mechanical step of a frame
+//! has begun the frame runs to its end: the step, remeshing and the
+//! geometric mesh take time linear in the mesh, a fraction of a robust
+//! mesh's — except when tracking is lost in the step and the tracker
+//! restarts from a robust mesh within the frame (rare; it then takes as
+//! long as a first frame).
+//!
 //! Every vertex of both meshes is on the surface to machine precision;
 //! both meshes are closed, oriented 2-manifolds (outward = increasing f)
 //! whenever the surface is closed and strictly inside the domain.
@@ -65,6 +83,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::geometry::Bounds;
@@ -249,6 +268,14 @@ pub struct Tracker<'s, E: Evaluator + ?Sized = Surface> {
     /// The mechanical mesh as handed out (compacted), rebuilt once a frame.
     mechanical: Mesh,
     geometric: Mesh,
+    cancel: Cancel,
+}
+
+/// A mechanical mesh started afresh ([`Tracker::restart`]), to install.
+struct Restart {
+    mesh: DynMesh,
+    inverted: Vec<bool>,
+    topo: (usize, Vec<Option<i64>>),
 }
 
 fn ms(since: Instant) -> f64 {
@@ -263,6 +290,17 @@ impl<'s> Tracker<'s, Surface> {
         t0: f64,
         opts: &TwinOptions,
     ) -> Result<Tracker<'s>, TrackError> {
+        Tracker::new_cancellable(surface, t0, opts, &Cancel::new())
+    }
+
+    /// [`Tracker::new`] with a [`Cancel`] token that the tracker polls
+    /// from then on (see "Cancelling" in the module doc).
+    pub fn new_cancellable(
+        surface: &'s Surface,
+        t0: f64,
+        opts: &TwinOptions,
+        cancel: &Cancel,
+    ) -> Result<Tracker<'s>, TrackError> {
         // A surface that does not depend on t cannot change (the program
         // is simplified and dead-code free, so an unused t is absent).
         let moves = surface
@@ -270,20 +308,22 @@ impl<'s> Tracker<'s, Surface> {
             .insts
             .iter()
             .any(|op| matches!(op, crate::ir::Op::Var(crate::ir::Var::T)));
-        Tracker::with_evaluator(surface, surface.domain, moves, t0, opts)
+        Tracker::with_evaluator(surface, surface.domain, moves, t0, opts, cancel)
     }
 }
 
 impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
     /// Meshes `f(·, t0) = 0` over `opts.domain` or, when that is `None`,
     /// over `domain` (see the module doc). `moves`: whether `f` depends on
-    /// t at all; when it does not, the topology watch is skipped.
+    /// t at all; when it does not, the topology watch is skipped. The
+    /// tracker polls `cancel` (see "Cancelling" in the module doc).
     pub fn with_evaluator(
         f: &'s E,
         domain: Bounds,
         moves: bool,
         t0: f64,
         opts: &TwinOptions,
+        cancel: &Cancel,
     ) -> Result<Tracker<'s, E>, TrackError> {
         let domain = opts.domain.unwrap_or(domain);
         let side = (0..3)
@@ -352,12 +392,20 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             t: t0,
             mechanical: Mesh::default(),
             geometric: Mesh::default(),
+            cancel: cancel.clone(),
         };
-        let (mesh, topo) = tracker.robust(t0, 0);
-        tracker.reinit(&mesh, topo, t0);
+        let (mesh, topo) = tracker.robust(t0, 0, &tracker.cancel)?;
+        let first = tracker.restart(&mesh, topo, t0, &tracker.cancel)?;
+        tracker.install(first);
         tracker.mechanical = tracker.mesh.to_mesh();
         tracker.geometric = tracker.mechanical.clone();
         Ok(tracker)
+    }
+
+    /// Replaces the token the tracker polls (e.g. a fresh one after a
+    /// cancelled frame, to go on tracking).
+    pub fn set_cancel(&mut self, cancel: &Cancel) {
+        self.cancel = cancel.clone();
     }
 
     /// The time of the last frame.
@@ -403,8 +451,14 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             .collect()
     }
 
-    /// The robust mesh at `t`, `extra` levels finer than the tracker's.
-    fn robust(&self, t: f64, extra: u8) -> (Mesh, topology::Topology) {
+    /// The robust mesh at `t`, `extra` levels finer than the tracker's,
+    /// unless `cancel` is cancelled first.
+    fn robust(
+        &self,
+        t: f64,
+        extra: u8,
+        cancel: &Cancel,
+    ) -> Result<(Mesh, topology::Topology), Cancelled> {
         let level = (self.level + extra).min(crate::octree::MAX_LEVEL);
         let opts = MeshOptions {
             octree: OctreeOptions {
@@ -422,36 +476,69 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             // constraint); its starting meshes are plain marching cubes.
             creases: false,
         };
-        let (mesh, report) = mesher::mesh_with(self.f, self.domain, &opts, &|_| {});
-        (mesh, report.topology)
+        let (mesh, report) =
+            mesher::mesh_with_cancellable(self.f, self.domain, &opts, &|_| {}, cancel)?;
+        Ok((mesh, report.topology))
     }
 
-    /// Starts the mechanical mesh afresh from a robust mesh at time `t`.
-    /// Marching cubes leaves many edges far shorter than ê; elements that
-    /// small are strongly compressed, the state §2.6.1 warns leads to
-    /// inversions, so the short edges are collapsed (and long ones split)
-    /// by remeshing sweeps before the first mechanical step.
-    fn reinit(&mut self, mesh: &Mesh, topo: topology::Topology, t: f64) {
-        self.mesh = DynMesh::from_mesh(mesh);
-        self.inverted = vec![false; self.mesh.tris.len()];
-        self.edges = remesh::EdgeState::default();
-        self.topo = topo_key(&topo);
+    /// A mechanical mesh started afresh from the robust mesh `mesh` at
+    /// time `t`, not yet installed. Marching cubes leaves many edges far
+    /// shorter than ê; elements that small are strongly compressed, the
+    /// state §2.6.1 warns leads to inversions, so the short edges are
+    /// collapsed (and long ones split) by remeshing sweeps before the first
+    /// mechanical step.
+    fn restart(
+        &self,
+        mesh: &Mesh,
+        topo: topology::Topology,
+        t: f64,
+        cancel: &Cancel,
+    ) -> Result<Restart, Cancelled> {
+        let mut dm = DynMesh::from_mesh(mesh);
+        let mut inverted = vec![false; dm.tris.len()];
         let params = self.remesh_params(8);
         for _ in 0..8 {
             let mut scratch = remesh::EdgeState::default();
             let c = remesh::remesh(
-                &mut self.mesh,
+                &mut dm,
                 self.f,
                 t,
                 &params,
                 &mut scratch,
-                &mut self.inverted,
-            );
+                &mut inverted,
+                cancel,
+            )?;
             if c == remesh::Counts::default() {
                 break;
             }
         }
+        Ok(Restart {
+            mesh: dm,
+            inverted,
+            topo: topo_key(&topo),
+        })
+    }
+
+    /// Makes `r` the mechanical mesh.
+    fn install(&mut self, r: Restart) {
+        self.mesh = r.mesh;
+        self.inverted = r.inverted;
+        self.edges = remesh::EdgeState::default();
+        self.topo = r.topo;
         self.compact();
+    }
+
+    /// Restarts from the robust mesh at `t` in a frame past its last
+    /// checkpoint (it runs to its end).
+    fn restart_to_end(&mut self, t: f64) {
+        let never = Cancel::new();
+        let restarted = self
+            .robust(t, 0, &never)
+            .and_then(|(mesh, topo)| self.restart(&mesh, topo, t, &never));
+        match restarted {
+            Ok(r) => self.install(r),
+            Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
+        }
     }
 
     fn remesh_params(&self, sweeps: usize) -> remesh::Params {
@@ -470,6 +557,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         if !t.is_finite() {
             return Err(TrackError::Time(t));
         }
+        self.cancel.check()?;
         let start = Instant::now();
         let mut rep = FrameReport {
             t,
@@ -477,52 +565,33 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             ..FrameReport::default()
         };
 
-        // 1. Topology watch.
+        // 1. Topology watch (it reads the tracker only; a restart it
+        // calls for is applied after the last checkpoint).
         let t0 = Instant::now();
-        if self.opts.watch && self.moves && t != self.t {
-            let interval = Interval {
-                lo: self.t.min(t),
-                hi: self.t.max(t),
-            };
-            let cert = watch::certify(self.f, self.domain, interval, self.level + 1, 50_000);
-            if cert.verdict == watch::Verdict::Unproved {
-                rep.topology_certified = false;
-                let (mesh, topo) = self.robust(t, 1);
-                let now = topo_key(&topo);
-                if now != self.topo {
-                    rep.reinitialized = Some(format!(
-                        "topology changed: {} component(s), genus {:?} → {} component(s), genus {:?}",
-                        self.topo.0, self.topo.1, now.0, now.1
-                    ));
-                    // Restart at the tracker's own resolution when that
-                    // mesh sees the new topology too (fewer, larger
-                    // triangles to start from).
-                    let (coarse, ctopo) = self.robust(t, 0);
-                    if topo_key(&ctopo) == now {
-                        self.reinit(&coarse, ctopo, t);
-                    } else {
-                        self.reinit(&mesh, topo, t);
-                    }
-                }
-            }
-        }
+        let restart = match self.watch(t, &mut rep)? {
+            Some((mesh, topo)) => Some(self.restart(&mesh, topo, t, &self.cancel)?),
+            None => None,
+        };
         rep.ms.watch = ms(t0);
+        // The last checkpoint: from here on the frame changes the tracker.
+        self.cancel.check()?;
+        if let Some(r) = restart {
+            self.install(r);
+        }
 
         // 2–5. Mechanical mesh.
         let t0 = Instant::now();
         let mut step = self.step(t);
         if step.failures > 0 {
-            let (mesh, topo) = self.robust(t, 0);
             rep.reinitialized = Some(format!(
                 "tracking lost: {} vertices could not be projected onto the surface",
                 step.failures
             ));
-            self.reinit(&mesh, topo, t);
+            self.restart_to_end(t);
             step = self.step(t);
             if step.failures > 0 {
-                // Keep the robust mesh itself: it is on the surface.
-                let (mesh, topo) = self.robust(t, 0);
-                self.reinit(&mesh, topo, t);
+                // Keep the restarted mesh itself: it is on the surface.
+                self.restart_to_end(t);
                 step = StepResult::default();
             }
         }
@@ -555,7 +624,9 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             &params,
             &mut self.edges,
             &mut self.inverted,
-        );
+            &Cancel::new(),
+        )
+        .unwrap_or_else(|Cancelled| unreachable!("a fresh token is never cancelled"));
         rep.splits = counts.splits;
         rep.collapses = counts.collapses;
         rep.flips = counts.flips;
@@ -592,6 +663,45 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         rep.genus = self.topo.1.clone();
         rep.ms.total = ms(start);
         Ok(rep)
+    }
+
+    /// Step 1 of a frame: when no proof shows that the topology stays the
+    /// same over `[self.t, t]`, the robust mesh at `t`; if its topology
+    /// differs from the tracker's, the mesh to restart from.
+    fn watch(
+        &self,
+        t: f64,
+        rep: &mut FrameReport,
+    ) -> Result<Option<(Mesh, topology::Topology)>, Cancelled> {
+        if !(self.opts.watch && self.moves && t != self.t) {
+            return Ok(None);
+        }
+        let interval = Interval {
+            lo: self.t.min(t),
+            hi: self.t.max(t),
+        };
+        let cert = watch::certify(self.f, self.domain, interval, self.level + 1, 50_000);
+        if cert.verdict != watch::Verdict::Unproved {
+            return Ok(None);
+        }
+        rep.topology_certified = false;
+        let (mesh, topo) = self.robust(t, 1, &self.cancel)?;
+        let now = topo_key(&topo);
+        if now == self.topo {
+            return Ok(None);
+        }
+        rep.reinitialized = Some(format!(
+            "topology changed: {} component(s), genus {:?} → {} component(s), genus {:?}",
+            self.topo.0, self.topo.1, now.0, now.1
+        ));
+        // Restart at the tracker's own resolution when that mesh sees the
+        // new topology too (fewer, larger triangles to start from).
+        let (coarse, ctopo) = self.robust(t, 0, &self.cancel)?;
+        Ok(Some(if topo_key(&ctopo) == now {
+            (coarse, ctopo)
+        } else {
+            (mesh, topo)
+        }))
     }
 
     /// Flags inverted triangles at the current gradients; returns how many.

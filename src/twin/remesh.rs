@@ -41,6 +41,7 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
 use glam::DVec3;
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
 use crate::mesh::dynmesh::{DynMesh, EdgeKey, key};
 use crate::roots::walk::newton;
@@ -108,8 +109,13 @@ pub struct EdgeState {
     pub held: HashMap<EdgeKey, Held>,
 }
 
+/// Edges between two polls of the cancel token.
+const POLL_EDGES: usize = 4096;
+
 /// One remeshing pass; see the module doc. `inverted[i]` flags triangle
-/// `i` (triangles created here are not).
+/// `i` (triangles created here are not). Stops with [`Cancelled`] when
+/// `cancel` is cancelled (polled every few thousand edges); the mesh is
+/// then valid (every operation done is whole) but partly remeshed.
 pub fn remesh<E: Evaluator + ?Sized>(
     mesh: &mut DynMesh,
     f: &E,
@@ -117,7 +123,8 @@ pub fn remesh<E: Evaluator + ?Sized>(
     p: &Params,
     edges: &mut EdgeState,
     inverted: &mut Vec<bool>,
-) -> Counts {
+    cancel: &Cancel,
+) -> Result<Counts, Cancelled> {
     let EdgeState {
         prev_len,
         frozen,
@@ -142,9 +149,12 @@ pub fn remesh<E: Evaluator + ?Sized>(
 
         // Splits, longest first.
         lens.sort_by(|a, b| b.1.total_cmp(&a.1));
-        for &(e, len) in &lens {
+        for (i, &(e, len)) in lens.iter().enumerate() {
             if len <= p.e_max * p.edge {
                 break;
+            }
+            if i % POLL_EDGES == 0 {
+                cancel.check()?;
             }
             let (a, b) = e;
             if dirty[a as usize] || dirty[b as usize] {
@@ -183,9 +193,12 @@ pub fn remesh<E: Evaluator + ?Sized>(
 
         // Collapses, shortest first.
         lens.reverse();
-        for &(e, len) in &lens {
+        for (i, &(e, len)) in lens.iter().enumerate() {
             if len >= p.e_min * p.edge {
                 break;
+            }
+            if i % POLL_EDGES == 0 {
+                cancel.check()?;
             }
             let (a, b) = e;
             if dirty[a as usize]
@@ -237,7 +250,10 @@ pub fn remesh<E: Evaluator + ?Sized>(
 
         // Flips.
         if p.flips {
-            for e in mesh.edges() {
+            for (i, e) in mesh.edges().into_iter().enumerate() {
+                if i % POLL_EDGES == 0 {
+                    cancel.check()?;
+                }
                 let (a, b) = e;
                 if dirty[a as usize] || dirty[b as usize] {
                     continue;
@@ -266,7 +282,7 @@ pub fn remesh<E: Evaluator + ?Sized>(
             break;
         }
     }
-    counts
+    Ok(counts)
 }
 
 /// The geometric conditions of a collapse of `a–b` to `p` (see the module

@@ -109,6 +109,32 @@ fn units_and_objects() {
     assert_eq!("mm".parse::<Unit>(), Ok(Unit::Millimeter));
 }
 
+#[test]
+fn empty_meshes_are_no_objects() {
+    // The core specification requires triangles in a mesh object: an empty
+    // mesh is left out and the ids stay consecutive.
+    let m = tetra();
+    let empty = Mesh::default();
+    let mut bytes = Vec::new();
+    threemf::write_objects(&[&empty, &m, &empty], Unit::Millimeter, &mut bytes).unwrap();
+    let model = model_of(&bytes);
+    assert_eq!(attrs(&model, "object", "id"), ["1"]);
+    assert_eq!(attrs(&model, "item", "objectid"), ["1"]);
+    assert_eq!(
+        read_model(&model),
+        read_model(&model_of(&{
+            let mut one = Vec::new();
+            threemf::write(&m, &mut one).unwrap();
+            one
+        }))
+    );
+    let mut bytes = Vec::new();
+    threemf::write(&empty, &mut bytes).unwrap();
+    let model = model_of(&bytes);
+    assert!(!model.contains("<object") && !model.contains("<item"));
+    assert!(model.contains("<resources>") && model.contains("<build>"));
+}
+
 fn isoc(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_isoc"))
         .args(args)

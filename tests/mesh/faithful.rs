@@ -133,7 +133,15 @@ fn chord_splits_keep_the_mesh_and_bring_midpoints_within_the_tolerance() {
     let worst = midpoints(&mesh).into_iter().fold(0.0, f64::max);
     let tau = worst / 10.0;
     let mut feature = Vec::new();
-    let n = isoc::mesher::chord::split_edges(&mut mesh, &mut feature, &s, 0.0, tau);
+    let n = isoc::mesher::chord::split_edges(
+        &mut mesh,
+        &mut feature,
+        &s,
+        0.0,
+        tau,
+        &isoc::Cancel::new(),
+    )
+    .expect("never cancelled");
     assert!(n > 0);
     let after = isoc::mesh::topology::analyze(&mesh);
     assert!(after.manifold() && after.watertight, "{after:?}");

@@ -386,3 +386,63 @@ fn the_topology_watch_proves_only_what_is_true() {
     let r = certify(&s, s.domain, iv(0.0, 0.1), 6, 50_000);
     assert_eq!(r.verdict, Verdict::Unproved);
 }
+
+/// A tracker's Cancel token: a cancelled frame leaves the tracker at its
+/// last frame, and with a fresh token it goes on exactly as a tracker
+/// that was never cancelled; a cancelled construction fails.
+#[test]
+fn a_cancelled_frame_changes_nothing() {
+    use isoc::Cancel;
+    use isoc::twin::TrackError;
+    let s = corpus("blobs_merge");
+    let opts = TwinOptions::default();
+    let cancelled = Cancel::new();
+    cancelled.cancel();
+    assert!(matches!(
+        Tracker::new_cancellable(&s, 0.0, &opts, &cancelled),
+        Err(TrackError::Cancelled)
+    ));
+
+    let token = Cancel::new();
+    let mut a = Tracker::new_cancellable(&s, 0.0, &opts, &token).expect("tracker");
+    let mut b = Tracker::new(&s, 0.0, &opts).expect("tracker");
+    let times = [0.0, 0.3, 0.6];
+    for &t in &times[..2] {
+        a.advance(t).expect("frame");
+        b.advance(t).expect("frame");
+    }
+    let same = |m: &Mesh, n: &Mesh| m.positions == n.positions && m.triangles == n.triangles;
+    let before = (a.mechanical().clone(), a.geometric().clone(), a.time());
+    token.cancel();
+    assert!(matches!(a.advance(times[2]), Err(TrackError::Cancelled)));
+    assert!(same(a.mechanical(), &before.0) && same(a.geometric(), &before.1));
+    assert_eq!(a.time(), before.2);
+    a.set_cancel(&Cancel::new());
+    let ra = a.advance(times[2]).expect("frame");
+    let rb = b.advance(times[2]).expect("frame");
+    assert!(same(a.mechanical(), b.mechanical()) && same(a.geometric(), b.geometric()));
+    assert_eq!((ra.components, ra.genus), (rb.components, rb.genus));
+}
+
+/// Cancelling from another thread stops a construction under way (a fine
+/// edge: the robust mesh and its remeshing sweeps take far longer than the
+/// delay) with `Cancelled`.
+#[test]
+fn cancelling_stops_a_construction_under_way() {
+    use isoc::Cancel;
+    use isoc::twin::TrackError;
+    let s = corpus("blobs_pass");
+    let opts = TwinOptions {
+        edge: Some(0.008),
+        ..TwinOptions::default()
+    };
+    let token = Cancel::new();
+    let other = token.clone();
+    let canceller = std::thread::spawn(move || {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        other.cancel();
+    });
+    let got = Tracker::new_cancellable(&s, 0.0, &opts, &token);
+    canceller.join().unwrap();
+    assert!(matches!(got, Err(TrackError::Cancelled)));
+}
