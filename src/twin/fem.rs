@@ -33,7 +33,7 @@
 //! co-rotational methods); [`Frames::apply`] computes the product with a
 //! vector without assembling a matrix.
 
-use glam::{DVec2, DVec3};
+use glam::{DMat3, DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::mesh::dynmesh::DynMesh;
@@ -161,6 +161,29 @@ impl Frames {
             }
         }
     }
+}
+
+impl Frames {
+    /// The 3×3 diagonal blocks `Σ R K_vv Rᵀ` of the stiffness, per vertex
+    /// (the block-Jacobi preconditioner of the step's solver).
+    pub fn diagonal(&self, stiff: &Stiffness, n: usize) -> Vec<DMat3> {
+        let mut out = vec![DMat3::ZERO; n];
+        for fr in &self.frames {
+            for (k, &v) in fr.verts.iter().enumerate() {
+                let (i, j) = (2 * k, 2 * k + 1);
+                let kx = fr.x * stiff.k[i][i] + fr.y * stiff.k[j][i];
+                let ky = fr.x * stiff.k[i][j] + fr.y * stiff.k[j][j];
+                // X K_vv Xᵀ with X = [x̂ ŷ]: columns kx x̂ᵀ + ky ŷᵀ.
+                out[v as usize] += outer(kx, fr.x) + outer(ky, fr.y);
+            }
+        }
+        out
+    }
+}
+
+/// The outer product `a bᵀ`.
+fn outer(a: DVec3, b: DVec3) -> DMat3 {
+    DMat3::from_cols(a * b.x, a * b.y, a * b.z)
 }
 
 fn frame(mesh: &DynMesh, stiff: &Stiffness, t: [u32; 3], inv: bool) -> Option<Frame> {

@@ -79,7 +79,7 @@ pub mod watch;
 
 use std::time::Instant;
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -806,7 +806,11 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
     }
 
     /// Filtered conjugate gradients for `(I + dt Σ R K Rᵀ) Δx = b` with
-    /// `Δx` kept in the vertices' tangent planes (Baraff & Witkin 1998).
+    /// `Δx` kept in the vertices' tangent planes (Baraff & Witkin 1998),
+    /// preconditioned by the system's 3×3 diagonal blocks restricted to
+    /// each tangent plane (block Jacobi, [`Preconditioner`]). Stops when
+    /// the residual is below `cg_tolerance` times the filtered right-hand
+    /// side.
     fn solve(&self, frames: &Frames, normals: &[DVec3], b: &[DVec3]) -> (Vec<DVec3>, usize) {
         let n = b.len();
         let filter = |v: &mut [DVec3]| {
@@ -823,6 +827,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             }
             filter(out);
         };
+        let precondition = Preconditioner::new(&frames.diagonal(&self.stiff, n), normals, dt);
         let mut x = vec![DVec3::ZERO; n];
         let mut r = b.to_vec();
         filter(&mut r);
@@ -830,8 +835,9 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         if b_norm == 0.0 {
             return (x, 0);
         }
-        let mut p = r.clone();
-        let mut rr = dot(&r, &r);
+        let mut z = precondition.apply(&r);
+        let mut p = z.clone();
+        let mut rz = dot(&r, &z);
         let mut ap = vec![DVec3::ZERO; n];
         let mut iters = 0;
         for _ in 0..self.opts.cg_iterations {
@@ -841,20 +847,24 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             if pap <= 0.0 || !pap.is_finite() {
                 break;
             }
-            let alpha = rr / pap;
+            let alpha = rz / pap;
             for i in 0..n {
                 x[i] += p[i] * alpha;
                 r[i] -= ap[i] * alpha;
             }
-            let rr_new = dot(&r, &r);
-            if rr_new.sqrt() < self.opts.cg_tolerance * b_norm {
+            if dot(&r, &r).sqrt() < self.opts.cg_tolerance * b_norm {
                 break;
             }
-            let beta = rr_new / rr;
-            for i in 0..n {
-                p[i] = r[i] + p[i] * beta;
+            z = precondition.apply(&r);
+            let rz_new = dot(&r, &z);
+            if rz_new <= 0.0 || !rz_new.is_finite() {
+                break;
             }
-            rr = rr_new;
+            let beta = rz_new / rz;
+            for i in 0..n {
+                p[i] = z[i] + p[i] * beta;
+            }
+            rz = rz_new;
         }
         (x, iters)
     }
@@ -907,6 +917,54 @@ pub(crate) const MAX_PASSES: usize = 12;
 
 /// Applications of eq. 4 per step (each from the planes of the last).
 const SHARP_ITERATIONS: usize = 5;
+
+/// Block-Jacobi preconditioner of the step's solver: per vertex, the
+/// inverse of the system's diagonal block `M = I + dt K_vv` restricted to
+/// the tangent plane, `T S⁻¹ Tᵀ` with `T` an orthonormal basis of the
+/// plane and `S = Tᵀ M T` (symmetric positive definite on the plane, so
+/// the preconditioned iteration is still conjugate gradients); a vertex
+/// without a normal gets `M⁻¹`, and a singular block the identity.
+struct Preconditioner {
+    blocks: Vec<DMat3>,
+}
+
+impl Preconditioner {
+    fn new(diagonal: &[DMat3], normals: &[DVec3], dt: f64) -> Preconditioner {
+        let blocks = diagonal
+            .iter()
+            .zip(normals)
+            .map(|(k, &nrm)| Preconditioner::block(DMat3::IDENTITY + *k * dt, nrm))
+            .collect();
+        Preconditioner { blocks }
+    }
+
+    fn block(m: DMat3, nrm: DVec3) -> DMat3 {
+        let outer = |u: DVec3, v: DVec3| DMat3::from_cols(u * v.x, u * v.y, u * v.z);
+        if nrm == DVec3::ZERO {
+            let det = m.determinant();
+            return if det > 0.0 && det.is_finite() {
+                m.inverse()
+            } else {
+                DMat3::IDENTITY
+            };
+        }
+        let (t1, t2) = nrm.any_orthonormal_pair();
+        let a = t1.dot(m * t1);
+        let b = 0.5 * (t1.dot(m * t2) + t2.dot(m * t1));
+        let d = t2.dot(m * t2);
+        let det = a * d - b * b;
+        let (ia, ib, id) = if det > 0.0 && det.is_finite() {
+            (d / det, -b / det, a / det)
+        } else {
+            (1.0, 0.0, 1.0)
+        };
+        outer(t1, t1) * ia + (outer(t1, t2) + outer(t2, t1)) * ib + outer(t2, t2) * id
+    }
+
+    fn apply(&self, r: &[DVec3]) -> Vec<DVec3> {
+        self.blocks.iter().zip(r).map(|(m, v)| *m * *v).collect()
+    }
+}
 
 #[derive(Clone, Copy, Debug, Default)]
 struct StepResult {
