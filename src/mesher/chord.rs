@@ -87,6 +87,10 @@ pub fn split_round<E: Evaluator + ?Sized>(
     splits.len()
 }
 
+/// Edges measured per task: the midpoints and their gradients exist for
+/// one task's edges at a time, not for the whole mesh.
+const EDGES_PER_TASK: usize = 4096;
+
 /// The edges to split (smaller index first) and their new vertices'
 /// positions and gradients.
 fn splits<E: Evaluator + ?Sized>(
@@ -96,6 +100,40 @@ fn splits<E: Evaluator + ?Sized>(
     t: f64,
     tau: f64,
 ) -> Vec<((u32, u32), DVec3, DVec3)> {
+    let edges = inner_edges(mesh, feature);
+    let (p, n) = (&mesh.positions, &mesh.normals);
+    edges
+        .par_chunks(EDGES_PER_TASK)
+        .flat_map_iter(|chunk| {
+            let mids: Vec<DVec3> = chunk
+                .iter()
+                .map(|&(a, b)| (p[a as usize] + p[b as usize]) * 0.5)
+                .collect();
+            let measured = grads_at(f, t, &mids);
+            let far = chunk.iter().zip(mids).zip(measured).filter(|(_, (v, g))| {
+                // NaN (no gradient) is not a measurement: no split.
+                v.abs() / g.length() > tau
+            });
+            far.filter_map(|((&(a, b), mid), _)| {
+                let (a, b) = (a as usize, b as usize);
+                let reach = REACH * p[a].distance(p[b]);
+                let (q, _) = project_along(f, t, mid, reach)?;
+                // The gradient at the new vertex itself (its normal): on
+                // the sheet of the edge's ends, not across a thin wall.
+                let (_, g) = f.point_grad([q.x, q.y, q.z, t]);
+                let g = DVec3::from_array(g);
+                let same_sheet = g.dot(n[a]) > 0.0 && g.dot(n[b]) > 0.0;
+                (g.is_finite() && same_sheet).then_some(((a as u32, b as u32), q, g))
+            })
+            .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+/// The edges (smaller index first, sorted) with exactly two triangles and
+/// not both ends on a crease. A boundary edge lies on the domain's face,
+/// where a projected midpoint would not.
+fn inner_edges(mesh: &Mesh, feature: &[bool]) -> Vec<(u32, u32)> {
     let crease = |v: u32| feature.get(v as usize).copied().unwrap_or(false);
     let mut uses: Vec<(u32, u32)> = mesh
         .triangles
@@ -105,43 +143,23 @@ fn splits<E: Evaluator + ?Sized>(
         .filter(|&(a, b)| !(crease(a) && crease(b)))
         .collect();
     uses.par_sort_unstable();
-    // Edges with two triangles: a boundary edge lies on the domain's face,
-    // where a projected midpoint would not.
-    let edges: Vec<(u32, u32)> = uses
-        .chunk_by(|x, y| x == y)
-        .filter(|run| run.len() == 2)
-        .map(|run| run[0])
-        .collect();
-    let p = &mesh.positions;
-    let mids: Vec<DVec3> = edges
-        .iter()
-        .map(|&(a, b)| (p[a as usize] + p[b as usize]) * 0.5)
-        .collect();
-    let far: Vec<usize> = grads_at(f, t, &mids)
-        .iter()
-        .enumerate()
-        .filter(|(_, (v, g))| {
-            let d = v.abs() / g.length();
-            // NaN (no gradient) is not a measurement: no split.
-            d > tau
-        })
-        .map(|(i, _)| i)
-        .collect();
-    let n = &mesh.normals;
-    far.par_iter()
-        .filter_map(|&i| {
-            let (a, b) = edges[i];
-            let (a, b) = (a as usize, b as usize);
-            let reach = REACH * p[a].distance(p[b]);
-            let (q, _) = project_along(f, t, mids[i], reach)?;
-            // The gradient at the new vertex itself (its normal): on the
-            // sheet of the edge's ends, not across a thin wall.
-            let (_, g) = f.point_grad([q.x, q.y, q.z, t]);
-            let g = DVec3::from_array(g);
-            let same_sheet = g.dot(n[a]) > 0.0 && g.dot(n[b]) > 0.0;
-            (g.is_finite() && same_sheet).then_some(((a as u32, b as u32), q, g))
-        })
-        .collect()
+    // In place: the first of each run of exactly two.
+    let mut kept = 0;
+    let mut i = 0;
+    while i < uses.len() {
+        let mut j = i + 1;
+        while j < uses.len() && uses[j] == uses[i] {
+            j += 1;
+        }
+        if j - i == 2 {
+            uses[kept] = uses[i];
+            kept += 1;
+        }
+        i = j;
+    }
+    uses.truncate(kept);
+    uses.shrink_to_fit();
+    uses
 }
 
 /// Splits `mesh`'s edges at the given vertices (see the module doc).
@@ -157,40 +175,59 @@ fn apply(mesh: &mut Mesh, feature: &mut Vec<bool>, splits: &[((u32, u32), DVec3,
         feature.push(false);
     }
     let mid = |a: u32, b: u32| at.get(&(a.min(b), a.max(b))).copied();
-    let p = mesh.positions.clone();
+    // Each triangle is replaced by its first piece in place; the others
+    // are appended (no second copy of the triangle list).
+    let p = &mesh.positions;
     let d2 = |a: u32, b: u32| p[a as usize].distance_squared(p[b as usize]);
-    let mut out = Vec::with_capacity(mesh.triangles.len() + 3 * splits.len());
-    for &t in &mesh.triangles {
+    let mut extra = Vec::with_capacity(3 * splits.len());
+    for t in mesh.triangles.iter_mut() {
         let m = [0, 1, 2].map(|k| mid(t[k], t[(k + 1) % 3]));
-        match m.iter().filter(|x| x.is_some()).count() {
-            0 => out.push(t),
-            3 => {
-                let [ab, bc, ca] = m.map(|x| x.expect("three splits"));
-                let [a, b, c] = t;
-                out.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        let (pieces, count) = pieces(*t, m, d2);
+        *t = pieces[0];
+        extra.extend_from_slice(&pieces[1..count]);
+    }
+    mesh.triangles.append(&mut extra);
+}
+
+/// The triangles that replace `t = [a, b, c]` given the split vertices
+/// `m[k]` of its edges `t[k]→t[k+1]` (see the module doc); `d2` measures
+/// a squared length, to cut a quad by its shorter diagonal. Returns the
+/// pieces (the first `count` of the array).
+fn pieces(
+    t: [u32; 3],
+    m: [Option<u32>; 3],
+    d2: impl Fn(u32, u32) -> f64,
+) -> ([[u32; 3]; 4], usize) {
+    let pad = |p: &[[u32; 3]]| {
+        let mut out = [t; 4];
+        out[..p.len()].copy_from_slice(p);
+        (out, p.len())
+    };
+    match m.iter().filter(|x| x.is_some()).count() {
+        0 => pad(&[t]),
+        3 => {
+            let [ab, bc, ca] = m.map(|x| x.expect("three splits"));
+            let [a, b, c] = t;
+            pad(&[[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]])
+        }
+        n => {
+            // Rotate so that edge 0 (a→b) is split and, with two splits,
+            // edge 1 (b→c) too.
+            let r = (0..3)
+                .find(|&r| m[r].is_some() && (n == 1 || m[(r + 1) % 3].is_some()))
+                .expect("a split edge");
+            let [a, b, c] = [t[r], t[(r + 1) % 3], t[(r + 2) % 3]];
+            let ab = m[r].expect("split");
+            if n == 1 {
+                return pad(&[[a, ab, c], [ab, b, c]]);
             }
-            n => {
-                // Rotate so that edge 0 (a→b) is split and, with two
-                // splits, edge 1 (b→c) too.
-                let r = (0..3)
-                    .find(|&r| m[r].is_some() && (n == 1 || m[(r + 1) % 3].is_some()))
-                    .expect("a split edge");
-                let [a, b, c] = [t[r], t[(r + 1) % 3], t[(r + 2) % 3]];
-                let ab = m[r].expect("split");
-                if n == 1 {
-                    out.extend([[a, ab, c], [ab, b, c]]);
-                } else {
-                    let bc = m[(r + 1) % 3].expect("split");
-                    out.push([ab, b, bc]);
-                    // The quad a, ab, bc, c by its shorter diagonal.
-                    if d2(a, bc) <= d2(ab, c) {
-                        out.extend([[a, ab, bc], [a, bc, c]]);
-                    } else {
-                        out.extend([[a, ab, c], [ab, bc, c]]);
-                    }
-                }
+            let bc = m[(r + 1) % 3].expect("split");
+            // The quad a, ab, bc, c by its shorter diagonal.
+            if d2(a, bc) <= d2(ab, c) {
+                pad(&[[ab, b, bc], [a, ab, bc], [a, bc, c]])
+            } else {
+                pad(&[[ab, b, bc], [a, ab, c], [ab, bc, c]])
             }
         }
     }
-    mesh.triangles = out;
 }

@@ -259,6 +259,9 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     } else {
         crease::Creases::default()
     };
+    // The dual grid's data is not needed past the creases: free it before
+    // the stages that add to the mesh.
+    drop((values, active, cell_of));
     if let Some(tau) = opts.octree.chord_tolerance(domain) {
         chord::split_edges(&mut mesh, &mut creases.feature, &field, t, tau, cancel)?;
     }
