@@ -271,14 +271,23 @@ pub fn smooth_keeping<E: Evaluator + ?Sized>(
         accepted += moves;
     }
     flips.run(mesh);
+    drop((flips, pinned));
     // The normals at the final positions of the vertices that moved (the
-    // others' are their positions' already).
-    let moved: Vec<usize> = (0..moved.len()).filter(|&v| moved[v]).collect();
-    let at: Vec<DVec3> = moved.iter().map(|&v| mesh.positions[v]).collect();
-    for (&v, (_, g)) in moved.iter().zip(grads_at(f, t, &at)) {
-        if g.is_finite() && g.length_squared() > 0.0 {
-            mesh.normals[v] = g.normalize();
+    // others' are their positions' already), a slice of vertices at a time.
+    let moved: Vec<u32> = (0..moved.len() as u32)
+        .filter(|&v| moved[v as usize])
+        .collect();
+    for part in moved.chunks(REFRESH_CHUNK) {
+        let at: Vec<DVec3> = part.iter().map(|&v| mesh.positions[v as usize]).collect();
+        for (&v, (_, g)) in part.iter().zip(grads_at(f, t, &at)) {
+            if g.is_finite() && g.length_squared() > 0.0 {
+                mesh.normals[v as usize] = g.normalize();
+            }
         }
     }
     Ok(accepted)
 }
+
+/// Vertices whose normals are refreshed together (bounds the transient
+/// position and gradient arrays; still many batches for the threads).
+const REFRESH_CHUNK: usize = 1 << 16;
