@@ -123,46 +123,6 @@ pub fn analyze_in(mesh: &Mesh, domain: Option<&Bounds>) -> Topology {
         }
     }
     directed.sort_unstable();
-    // Undirected edge (lower end) → uses forwards and backwards.
-    let mut edges: Vec<(u32, (u32, u32))> = Vec::new();
-    let mut open = 0;
-    let mut last = u64::MAX;
-    let mut close_last = |last: u64, edges: &[(u32, (u32, u32))]| {
-        if let Some(&(a, (fwd, back))) = edges.last() {
-            let b = (last & 0xffff_ffff) as usize;
-            let on_boundary = domain
-                .is_some_and(|d| on_domain_face(mesh.positions[a as usize], mesh.positions[b], d));
-            if fwd + back == 1 && !on_boundary {
-                open += 1;
-            }
-        }
-    };
-    for &d in &directed {
-        if d >> 1 != last {
-            close_last(last, &edges);
-            last = d >> 1;
-            edges.push(((d >> 33) as u32, (0, 0)));
-        }
-        let e = &mut edges.last_mut().expect("pushed above").1;
-        if d & 1 == 0 {
-            e.0 += 1;
-        } else {
-            e.1 += 1;
-        }
-    }
-    close_last(last, &edges);
-    drop(directed);
-    let (mut boundary, mut nonmanifold, mut misoriented) = (0, 0, 0);
-    for &(_, (fwd, back)) in &edges {
-        match fwd + back {
-            1 => boundary += 1,
-            2 if fwd != 1 => misoriented += 1,
-            2 => {}
-            _ => nonmanifold += 1,
-        }
-    }
-    let nonmanifold_vertices = count_bowties(mesh, &used);
-    let v = used.iter().filter(|u| **u).count();
     // Per component: V, E, F and closedness.
     let mut comp: HashMap<u32, (i64, i64, i64, bool)> = HashMap::new();
     for i in 0..n as u32 {
@@ -171,18 +131,45 @@ pub fn analyze_in(mesh: &Mesh, domain: Option<&Bounds>) -> Topology {
             comp.entry(r).or_insert((0, 0, 0, true)).0 += 1;
         }
     }
-    for &(a, (fwd, back)) in &edges {
-        let r = uf.find(a);
-        let c = comp.get_mut(&r).expect("edge of a used vertex");
+    for t in &mesh.triangles {
+        let r = uf.find(t[0]);
+        comp.get_mut(&r).expect("component").2 += 1;
+    }
+    // Each run of `directed` is one undirected edge: its uses forwards and
+    // backwards decide its kind (no per-edge table is kept).
+    let (mut edges, mut open) = (0usize, 0usize);
+    let (mut boundary, mut nonmanifold, mut misoriented) = (0, 0, 0);
+    for run in directed.chunk_by(|x, y| x >> 1 == y >> 1) {
+        let back = run.iter().filter(|&&d| d & 1 == 1).count();
+        let fwd = run.len() - back;
+        let (a, b) = (
+            (run[0] >> 33) as u32,
+            ((run[0] >> 1) & 0xffff_ffff) as usize,
+        );
+        edges += 1;
+        match fwd + back {
+            1 => {
+                boundary += 1;
+                let on_boundary = domain.is_some_and(|d| {
+                    on_domain_face(mesh.positions[a as usize], mesh.positions[b], d)
+                });
+                if !on_boundary {
+                    open += 1;
+                }
+            }
+            2 if fwd != 1 => misoriented += 1,
+            2 => {}
+            _ => nonmanifold += 1,
+        }
+        let c = comp.get_mut(&uf.find(a)).expect("edge of a used vertex");
         c.1 += 1;
         if fwd + back != 2 || fwd != 1 {
             c.3 = false;
         }
     }
-    for t in &mesh.triangles {
-        let r = uf.find(t[0]);
-        comp.get_mut(&r).expect("component").2 += 1;
-    }
+    drop(directed);
+    let nonmanifold_vertices = count_bowties(mesh, &used);
+    let v = used.iter().filter(|u| **u).count();
     let mut comps: Vec<(i64, i64, i64, bool)> = comp.into_values().collect();
     comps.sort_by_key(|c| std::cmp::Reverse(c.2));
     let genus = comps
@@ -193,10 +180,10 @@ pub fn analyze_in(mesh: &Mesh, domain: Option<&Bounds>) -> Topology {
         boundary == 0 && nonmanifold == 0 && misoriented == 0 && nonmanifold_vertices == 0;
     Topology {
         vertices: v,
-        edges: edges.len(),
+        edges,
         faces: mesh.triangles.len(),
         components: comps.len(),
-        euler: v as i64 - edges.len() as i64 + mesh.triangles.len() as i64,
+        euler: v as i64 - edges as i64 + mesh.triangles.len() as i64,
         genus,
         boundary_edges: boundary,
         open_edges: open,

@@ -231,7 +231,7 @@ pub fn extract<E: Evaluator + ?Sized>(
         ..ExtractStats::default()
     };
     // Polygonise every active cell into triangles over keys.
-    let outputs: Vec<CellsOutput> = active
+    let mut outputs: Vec<CellsOutput> = active
         .par_chunks(CELLS_PER_TASK)
         .enumerate()
         .map(|(chunk, cells)| {
@@ -253,27 +253,27 @@ pub fn extract<E: Evaluator + ?Sized>(
         .flat_map(|o| o.cells.iter().copied())
         .collect();
 
-    // Number the vertices in key order: every triangle corner with its
-    // slot, sorted by key; a new key is a new vertex.
-    let mut corners: Vec<(Key, u32)> =
-        Vec::with_capacity(3 * outputs.iter().map(|o| o.triangles.len()).sum::<usize>());
-    corners.extend(
-        outputs
-            .iter()
-            .flat_map(|o| o.triangles.iter().flatten())
-            .enumerate()
-            .map(|(slot, &k)| (k, slot as u32)),
-    );
-    corners.par_sort_unstable();
-    let mut keys: Vec<Key> = Vec::new();
-    let mut slots = vec![0u32; corners.len()];
-    for &(k, slot) in &corners {
-        if keys.last() != Some(&k) {
-            keys.push(k);
-        }
-        slots[slot as usize] = (keys.len() - 1) as u32;
+    // Number the vertices in key order: the distinct corner keys, sorted;
+    // a triangle's corners are then found by binary search (no per-corner
+    // slot records, which cost twice the keys).
+    let mut keys: Vec<Key> = outputs
+        .iter()
+        .flat_map(|o| o.triangles.iter().flatten().copied())
+        .collect();
+    keys.par_sort_unstable();
+    keys.dedup();
+    keys.shrink_to_fit();
+    let index = |k: &Key| {
+        keys.binary_search(k)
+            .expect("every corner key was collected") as u32
+    };
+    let triangles: Vec<[u32; 3]> = outputs
+        .par_iter()
+        .flat_map_iter(|o| o.triangles.iter().map(|t| t.each_ref().map(index)))
+        .collect();
+    for o in &mut outputs {
+        o.triangles = Vec::new();
     }
-    drop(corners);
     // Interior positions in key order (cells in order, each in order).
     let interiors: Vec<(Key, DVec3)> = outputs
         .iter()
@@ -320,7 +320,7 @@ pub fn extract<E: Evaluator + ?Sized>(
         positions: placed.iter().map(|p| p.0).collect(),
         ambiguous: placed.iter().map(|p| p.1).collect(),
         normals: Vec::new(),
-        triangles: slots.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+        triangles,
     };
     mesh.normals = normals_at(f, t, &mesh.positions);
     Ok((mesh, stats, cell_of))
