@@ -1,6 +1,7 @@
 //! The robust adaptive mesher end to end (Paiva et al. §4): octree →
 //! dual grid → dual marching cubes (MC33) with vertices bisected onto the
-//! surface → sharp creases ([`crease`]) → smoothing (edge flips and
+//! surface → coincident vertices welded ([`weld`]) → sharp creases
+//! ([`crease`]) → chord splits ([`chord`]) → smoothing (edge flips and
 //! tangential relaxation) → report.
 //! The report's topology is computed from the mesh itself
 //! ([`crate::mesh::topology`]), never assumed.
@@ -19,6 +20,7 @@ pub mod crease;
 pub mod flip;
 pub mod report;
 pub mod smooth;
+pub mod weld;
 
 use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
@@ -251,7 +253,8 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     cancel.check()?;
     progress(Stage::Polygonize);
     let t0 = Instant::now();
-    let (mut mesh, ex, cell_of) = extract::extract(&tree, &field, t, &values, &active, cancel)?;
+    let (mut mesh, ex, mut cell_of) = extract::extract(&tree, &field, t, &values, &active, cancel)?;
+    weld::weld_coincident(&mut mesh, &mut cell_of);
     cancel.check()?;
     let mut creases = if opts.creases {
         let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);

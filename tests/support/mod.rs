@@ -355,7 +355,16 @@ pub fn sample_points(b: &[Interval; 4], seed: u64, n: usize) -> Vec<[f64; 4]> {
 /// in `[lo, hi]` (so an empty interval fails); `±∞` needs the matching
 /// unbounded side.
 pub fn encloses(iv: Interval, v: f64) -> bool {
-    v.is_nan() || iv.contains(v)
+    // A NaN bound is the entire line (`Interval::normalize`, the library's
+    // convention; SPEC §2 prints it as null with `defined: false`).
+    v.is_nan() || iv.normalize().0.contains(v)
+}
+
+/// A NaN bound anywhere in an interval-gradient result.
+fn has_nan_bound(g: &isoc::eval::grad::GradEval) -> bool {
+    std::iter::once(g.value)
+        .chain(g.grad)
+        .any(|iv| iv.lo.is_nan() || iv.hi.is_nan())
 }
 
 /// Same point value (both NaN, or equal; `-0 == 0`).
@@ -495,6 +504,12 @@ pub fn check_grad<B: Evaluator>(
                 show(program, b)
             ));
         }
+    }
+    if g.defined && has_nan_bound(&g) {
+        return Err(format!(
+            "grad claims defined with a NaN bound: {g:?}\n{}",
+            show(program, b)
+        ));
     }
     Ok(())
 }
