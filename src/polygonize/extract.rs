@@ -47,7 +47,7 @@ use crate::eval::Evaluator;
 use crate::eval::sample::{normals_at, values_at};
 use crate::mesh::Mesh;
 use crate::octree::{Leaf, Octree};
-use crate::roots::{Segment, bisect_batch, project};
+use crate::roots::{Segment, bisect, bisect_batch, project};
 
 /// A mesh vertex before numbering: an edge between two leaves (smaller
 /// leaf first), or an interior vertex of one dual cell, packed into one
@@ -312,7 +312,9 @@ pub fn extract<E: Evaluator + ?Sized>(
         let p0 = interiors[at].1;
         let cell = active[k.cell() as usize];
         let reach = cell_reach(tree, &cell);
-        let p = project(f, t, p0, reach).unwrap_or(p0);
+        let p = project(f, t, p0, reach)
+            .or_else(|| zero_in_cell(tree, f, t, values, &cell, p0))
+            .unwrap_or(p0);
         (p, cell.iter().any(|&l| ambiguous_leaf(l)))
     }));
 
@@ -383,6 +385,36 @@ pub fn cell_bounds(tree: &Octree, cell: &DualCell) -> [DVec3; 2] {
 }
 
 /// The largest distance between two corners of a dual cell.
+/// When the gradient line from an interior vertex `p0` finds no zero: a
+/// zero on the segment from `p0` to the nearest corner of its dual cell
+/// whose value has the other sign (bisection; the corner values are
+/// known), so the vertex still lies on the surface and in its cell.
+/// `None` where `f(p0)` is not finite or no corner has the other sign.
+fn zero_in_cell<E: Evaluator + ?Sized>(
+    tree: &Octree,
+    f: &E,
+    t: f64,
+    values: &CornerValues,
+    cell: &DualCell,
+    p0: DVec3,
+) -> Option<DVec3> {
+    let f0 = f.point([p0.x, p0.y, p0.z, t]);
+    if !f0.is_finite() {
+        return None;
+    }
+    if f0 == 0.0 {
+        return Some(p0);
+    }
+    cell.iter()
+        .map(|&c| (c.position(tree), values.get(c)))
+        .filter(|&(_, v)| !v.is_nan() && (v < 0.0) != (f0 < 0.0))
+        .min_by(|a, b| {
+            p0.distance_squared(a.0)
+                .total_cmp(&p0.distance_squared(b.0))
+        })
+        .map(|(q, v)| bisect(f, t, p0, q, f0, v))
+}
+
 fn cell_reach(tree: &Octree, cell: &DualCell) -> f64 {
     let [lo, hi] = cell_bounds(tree, cell);
     (hi - lo).length()
