@@ -112,17 +112,39 @@ def _interrupt_after(seconds):
     return sent
 
 
+def _interrupt_latency(work, sent):
+    """Runs `work`, which the interrupt recorded in `sent` must stop with
+    `KeyboardInterrupt`; returns the seconds from the interrupt to it."""
+    with pytest.raises(KeyboardInterrupt):
+        work()
+        time.sleep(30)
+    return time.perf_counter() - sent[0]
+
+
+def _os_threads():
+    """Threads of this process as the OS counts them (Rust's included)."""
+    try:
+        return len(os.listdir("/proc/self/task"))
+    except OSError:
+        return threading.active_count()
+
+
+def _threads_after_warm_up(s):
+    """The thread count once rayon's pool exists (a small mesh of `s`)."""
+    s.mesh(level=3)
+    return _os_threads()
+
+
 def test_ctrl_c_interrupts_a_long_mesh():
     s = isoc.load(ROOT / "corpus" / "decocube.iso")
-    s.mesh(level=3)  # rayon's pool exists before the count
-    before = _os_threads()
+    before = _threads_after_warm_up(s)
     finished = []
-    sent = _interrupt_after(0.3)
-    with pytest.raises(KeyboardInterrupt):
+
+    def work():
         s.mesh(level=10, kmax=0.05, smooth=0)
         finished.append(True)
-        time.sleep(30)
-    latency = time.perf_counter() - sent[0]
+
+    latency = _interrupt_latency(work, _interrupt_after(0.3))
     assert not finished, "the level-10 mesh ended before the interrupt"
     assert latency < 0.5, f"{latency:.3f} s after the interrupt"
     print(f"Ctrl-C latency: {latency * 1e3:.1f} ms")
@@ -146,10 +168,7 @@ def test_ctrl_c_interrupts_extraction_and_smoothing(stage):
             sent.append(time.perf_counter())
             _thread.interrupt_main()
 
-    with pytest.raises(KeyboardInterrupt):
-        s.mesh(level=6, progress=progress)
-        time.sleep(30)
-    latency = time.perf_counter() - sent[0]
+    latency = _interrupt_latency(lambda: s.mesh(level=6, progress=progress), sent)
     print(f"Ctrl-C in {stage}: {latency * 1e3:.1f} ms")
     assert latency < 0.5, f"{latency:.3f} s after the interrupt in {stage}"
 
@@ -161,29 +180,20 @@ def test_some_corpus_meshes_are_guaranteed():
         assert m.guaranteed, name
 
 
-def _os_threads():
-    """Threads of this process as the OS counts them (Rust's included)."""
-    try:
-        return len(os.listdir("/proc/self/task"))
-    except OSError:
-        return threading.active_count()
-
-
 @pytest.mark.parametrize("edge,first", [(0.0064, True), (0.16, False)], ids=["first-frame", "later-frame"])
 def test_ctrl_c_interrupts_an_animation(edge, first):
     """Ctrl-C stops the tracker inside a frame (the first one of a fine
     tracker takes minutes here: its robust mesh has millions of triangles
     and its remeshing sweeps are cancelled) and leaves no thread behind."""
     s = isoc.load(ROOT / "corpus" / "blobs_pass.iso")
-    s.mesh(level=3)  # rayon's pool exists before the count
-    before = _os_threads()
+    before = _threads_after_warm_up(s)
     frames = []
-    sent = _interrupt_after(0.3)
-    with pytest.raises(KeyboardInterrupt):
+
+    def work():
         for m in s.animate(0.0, 1.0, 10_000, edge=edge):
             frames.append(len(m.faces))
-        time.sleep(30)
-    latency = time.perf_counter() - sent[0]
+
+    latency = _interrupt_latency(work, _interrupt_after(0.3))
     assert latency < 0.5, f"{latency:.3f} s after the interrupt"
     assert (len(frames) == 0) == first, len(frames)
     print(f"animation Ctrl-C latency: {latency * 1e3:.1f} ms after {len(frames)} frame(s)")

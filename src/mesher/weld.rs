@@ -200,16 +200,8 @@ impl Stars {
 /// Drops the dead triangles (and their `cell_of` entries) and the vertices
 /// no triangle uses, renumbering the rest in order.
 fn compact(mesh: &mut Mesh, cell_of: &mut Vec<u32>, alive: &[bool]) {
-    let mut k = 0;
-    cell_of.retain(|_| {
-        k += 1;
-        alive[k - 1]
-    });
-    let mut k = 0;
-    mesh.triangles.retain(|_| {
-        k += 1;
-        alive[k - 1]
-    });
+    retain_flagged(cell_of, alive);
+    retain_flagged(&mut mesh.triangles, alive);
     let mut used = vec![false; mesh.positions.len()];
     for t in &mesh.triangles {
         for &v in t {
@@ -224,25 +216,35 @@ fn compact(mesh: &mut Mesh, cell_of: &mut Vec<u32>, alive: &[bool]) {
             next += 1;
         }
     }
-    fn keep<T: Copy>(v: &[T], used: &[bool]) -> Vec<T> {
-        v.iter()
-            .zip(used)
-            .filter(|(_, u)| **u)
-            .map(|(x, _)| *x)
-            .collect()
-    }
-    mesh.positions = keep(&mesh.positions, &used);
-    mesh.normals = keep(&mesh.normals, &used);
-    mesh.ambiguous = keep(&mesh.ambiguous, &used);
+    retain_flagged(&mut mesh.positions, &used);
+    retain_flagged(&mut mesh.normals, &used);
+    retain_flagged(&mut mesh.ambiguous, &used);
     for t in &mut mesh.triangles {
         *t = t.map(|v| index[v as usize]);
     }
+}
+
+/// Keeps the elements of `v` whose flag in `keep` is set, in order.
+fn retain_flagged<T>(v: &mut Vec<T>, keep: &[bool]) {
+    let mut flags = keep.iter();
+    v.retain(|_| flags.next().copied().unwrap_or(false));
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::mesh::topology::analyze;
+
+    /// A mesh of `positions` and `triangles` (normals unused by the weld).
+    fn mesh_of(positions: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> Mesh {
+        let n = positions.len();
+        Mesh {
+            normals: vec![DVec3::Z; n],
+            ambiguous: vec![false; n],
+            positions,
+            triangles,
+        }
+    }
 
     /// An octahedron whose +z apex is doubled: vertex 6 sits where 4 does,
     /// joined to it by an edge, with two zero-area triangles between them.
@@ -270,13 +272,7 @@ mod tests {
             [3, 2, 5],
             [0, 3, 5],
         ];
-        let n = positions.len();
-        let mesh = Mesh {
-            normals: positions.iter().map(|p| p.normalize()).collect(),
-            ambiguous: vec![false; n],
-            positions,
-            triangles,
-        };
+        let mesh = mesh_of(positions, triangles);
         let cells = (0..mesh.triangles.len() as u32).collect();
         (mesh, cells)
     }
@@ -312,12 +308,7 @@ mod tests {
         // vertices), but the collapse would leave two triangles on the
         // same three vertices.
         let positions = vec![DVec3::ZERO, DVec3::ZERO, DVec3::Y, DVec3::Z];
-        let mut mesh = Mesh {
-            normals: vec![DVec3::X; 4],
-            ambiguous: vec![false; 4],
-            positions,
-            triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
-        };
+        let mut mesh = mesh_of(positions, vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]);
         let mut cells = vec![0, 1, 2, 3];
         let welded = weld_coincident(&mut mesh, &mut cells);
         let after = analyze(&mesh);
@@ -331,12 +322,7 @@ mod tests {
         // u = 0 and v = 1 coincide; besides the opposite vertices 2 and 3
         // both are joined to 4: the link condition fails.
         let positions = vec![DVec3::ZERO, DVec3::ZERO, DVec3::X, -DVec3::X, DVec3::Y];
-        let mut mesh = Mesh {
-            normals: vec![DVec3::Z; 5],
-            ambiguous: vec![false; 5],
-            positions,
-            triangles: vec![[0, 1, 2], [1, 0, 3], [0, 4, 2], [1, 4, 3]],
-        };
+        let mut mesh = mesh_of(positions, vec![[0, 1, 2], [1, 0, 3], [0, 4, 2], [1, 4, 3]]);
         let mut cells = vec![0, 1, 2, 3];
         assert_eq!(weld_coincident(&mut mesh, &mut cells), 0);
         assert_eq!(mesh.triangles.len(), 4);

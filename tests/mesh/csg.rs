@@ -31,6 +31,7 @@
 use std::time::Instant;
 
 use crate::support::csg::{Config, Outcome, Scene, compile, describe, mesh_and_check};
+use isoc::Surface;
 
 /// Meshes the scenes of `seeds` at `level` (every `plain_every`-th also
 /// plain) and returns the failure descriptions and the counts.
@@ -156,6 +157,22 @@ fn random_scenes() {
     tally.assert_clean_but(12);
 }
 
+/// Meshes `s` at `level` (plain: smoothing 0, no creases) and requires
+/// every check to pass; `what` names it in the failure message.
+fn assert_passes(s: &Surface, level: u8, plain: bool, what: &str) {
+    let o = mesh_and_check(s, level, plain, true);
+    let msg: Vec<String> = o
+        .failures
+        .iter()
+        .map(|f| format!("[{}] {}", f.check, f.detail))
+        .collect();
+    assert!(
+        o.failures.is_empty(),
+        "{what} level {level} plain {plain}:\n{}",
+        msg.join("\n")
+    );
+}
+
 /// Meshes the scenes of `seeds` at level 7, with the defaults and plain,
 /// and requires every check to pass.
 fn scenes_pass(seeds: &[u64]) {
@@ -164,17 +181,7 @@ fn scenes_pass(seeds: &[u64]) {
         let scene = Scene::random(seed, &cfg);
         let s = compile(&scene.source, &format!("seed_{seed}.iso"));
         for plain in [false, true] {
-            let o = mesh_and_check(&s, 7, plain, true);
-            let msg: Vec<String> = o
-                .failures
-                .iter()
-                .map(|f| format!("[{}] {}", f.check, f.detail))
-                .collect();
-            assert!(
-                o.failures.is_empty(),
-                "seed {seed} plain {plain}:\n{}",
-                msg.join("\n")
-            );
+            assert_passes(&s, 7, plain, &format!("seed {seed}"));
         }
     }
 }
@@ -201,17 +208,7 @@ fn regression_scene() {
     let src = std::fs::read_to_string(path).expect("../shared/regress is beside the repo");
     let s = compile(&src, path);
     for plain in [false, true] {
-        let o = mesh_and_check(&s, 7, plain, true);
-        let msg: Vec<String> = o
-            .failures
-            .iter()
-            .map(|f| format!("[{}] {}", f.check, f.detail))
-            .collect();
-        assert!(
-            o.failures.is_empty(),
-            "{path} plain {plain}:\n{}",
-            msg.join("\n")
-        );
+        assert_passes(&s, 7, plain, path);
     }
 }
 
@@ -219,13 +216,7 @@ fn regression_scene() {
 fn model(path: &str) {
     let src = std::fs::read_to_string(path).expect("../shared/models is beside the repo");
     let s = compile(&src, path);
-    let o = mesh_and_check(&s, 8, false, true);
-    let msg: Vec<String> = o
-        .failures
-        .iter()
-        .map(|f| format!("[{}] {}", f.check, f.detail))
-        .collect();
-    assert!(o.failures.is_empty(), "{path} level 8:\n{}", msg.join("\n"));
+    assert_passes(&s, 8, false, path);
 }
 
 #[test]

@@ -377,10 +377,16 @@ impl Builder {
         } else {
             SOLIDS[below(&mut self.rng, SOLIDS.len())]
         };
+        self.placed("p", p, centre, s)
+    }
+
+    /// Primitive `p` of size `s` in a random frame at `centre`, bound to a
+    /// `let` named with `prefix`.
+    fn placed(&mut self, prefix: &str, p: Prim, centre: DVec3, s: f64) -> Part {
         let f = self.random_frame(centre);
         let e = self.shape(p, &f.0, s);
         Part {
-            name: self.bind("p", e),
+            name: self.bind(prefix, e),
             centre,
             radius: s,
         }
@@ -538,13 +544,7 @@ impl Builder {
                     }
                 }
                 let p = SOLIDS[below(&mut self.rng, SOLIDS.len())];
-                let f = self.random_frame(c);
-                let e = self.shape(p, &f.0, s);
-                Part {
-                    name: self.bind("n", e),
-                    centre: c,
-                    radius: s,
-                }
+                self.placed("n", p, c, s)
             }
             5 => {
                 // An axis-aligned box whose faces lie on octree planes
@@ -570,13 +570,7 @@ impl Builder {
                 let s = uniform(&mut self.rng, 0.002, 0.02);
                 let p =
                     [Prim::Sphere, Prim::Torus, Prim::Box, Prim::Capsule][below(&mut self.rng, 4)];
-                let f = self.random_frame(centre);
-                let e = self.shape(p, &f.0, s);
-                Part {
-                    name: self.bind("n", e),
-                    centre,
-                    radius: s,
-                }
+                self.placed("n", p, centre, s)
             }
             _ => {
                 // A thin slab or rod: a box one cell thick along an axis.
