@@ -32,7 +32,7 @@
 
 use glam::DVec3;
 
-use crate::octree::{Node, Octant, Octree};
+use crate::octree::{MAX_LEVEL, Node, Octant, Octree};
 
 /// A dual-cell corner: a leaf, or a ghost of a leaf mirrored across the
 /// domain's boundary. `mirror` holds two bits per axis `k` (bits `2k`,
@@ -82,6 +82,37 @@ impl Corner {
     pub fn id(self) -> u64 {
         (self.node as u64) | ((self.mirror as u64) << 32)
     }
+}
+
+/// The octree vertex a dual cell is built around, in units of a
+/// maximal-level cell (each coordinate in `[0, 2^MAX_LEVEL]`): along each
+/// axis, the highest low face among its corners' boxes (a ghost's box
+/// mirrored across ∂Ω). The corners on the vertex's high side start there
+/// and the others end there, so this is the vertex itself.
+pub fn vertex(tree: &Octree, cell: &DualCell) -> [u64; 3] {
+    let n = 1i64 << MAX_LEVEL;
+    std::array::from_fn(|k| {
+        let low_face = |c: &Corner| {
+            let [lo, hi] = tree.nodes[c.node as usize].grid_box();
+            let (lo, hi) = (lo[k] as i64, hi[k] as i64);
+            match (c.mirror >> (2 * k)) & 3 {
+                1 => -hi,
+                2 => 2 * n - hi,
+                _ => lo,
+            }
+        };
+        let v = cell.iter().map(low_face).max().unwrap_or(0);
+        v.clamp(0, n) as u64
+    })
+}
+
+/// A dual-grid corner's name in any tree of the same domain: its leaf's
+/// level and integer position, and its mirroring (a total order, and the
+/// parts of [`crate::mesh::origin`]'s ids).
+pub fn global(tree: &Octree, c: Corner) -> u128 {
+    let n = &tree.nodes[c.node as usize];
+    let [i, j, k] = n.ijk.map(u128::from);
+    (u128::from(n.level) << 72) | (i << 48) | (j << 24) | (k << 8) | u128::from(c.mirror)
 }
 
 /// A dual cell: 8 corners in corner order (see the module doc).

@@ -12,6 +12,7 @@
 
 pub mod deviation;
 pub(crate) mod dynmesh;
+pub mod origin;
 pub mod quality;
 pub mod topology;
 

@@ -22,6 +22,12 @@
 //! two triangles; new vertices are not crease vertices, and are ambiguous
 //! when an end of their edge is.
 //!
+//! A part of a mesh (a brick of a bricked run, with its vertices'
+//! [`Origins`]: [`split_edges_in`]) also splits its edges with one
+//! triangle that do not lie on ∂Ω: their other triangle is in the next
+//! brick, which decides the same edge the same way, and the new vertex
+//! gets the same id on both sides.
+//!
 //! # Limits
 //!
 //! The measure is first order and at midpoints only: a triangle whose
@@ -38,6 +44,7 @@ use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::mesh::Mesh;
+use crate::mesh::origin::Origins;
 use crate::roots::project_along;
 
 /// Rounds of splitting (each at most halves an edge).
@@ -62,10 +69,25 @@ pub fn split_edges<E: Evaluator + ?Sized>(
     tau: f64,
     cancel: &Cancel,
 ) -> Result<usize, Cancelled> {
+    split_edges_in(mesh, feature, None, f, t, tau, cancel)
+}
+
+/// [`split_edges`] on a part of a mesh whose vertices have `origins` (see
+/// the module doc), kept in step; `None` is [`split_edges`].
+pub fn split_edges_in<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    feature: &mut Vec<bool>,
+    mut origins: Option<&mut Origins>,
+    f: &E,
+    t: f64,
+    tau: f64,
+    cancel: &Cancel,
+) -> Result<usize, Cancelled> {
     let mut total = 0;
-    for _ in 0..ROUNDS {
+    for round in 0..ROUNDS {
         cancel.check()?;
-        let n = split_round(mesh, feature, f, t, tau);
+        let part = origins.as_deref_mut().map(|o| (o, round as u32));
+        let n = split_round_in(mesh, feature, part, f, t, tau);
         if n == 0 {
             break;
         }
@@ -82,8 +104,34 @@ pub fn split_round<E: Evaluator + ?Sized>(
     t: f64,
     tau: f64,
 ) -> usize {
-    let splits = splits(mesh, feature, f, t, tau);
+    split_round_in(mesh, feature, None, f, t, tau)
+}
+
+/// [`split_round`] on a part of a mesh (see [`split_edges_in`]) whose
+/// vertices have `origins`, as its round number `round` (the ids of the
+/// new vertices depend on it: [`Origins::push_split`]).
+pub fn split_round_in<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    feature: &mut Vec<bool>,
+    origins: Option<(&mut Origins, u32)>,
+    f: &E,
+    t: f64,
+    tau: f64,
+) -> usize {
+    let splits = splits(
+        mesh,
+        feature,
+        origins.as_ref().map(|(o, _)| &**o),
+        f,
+        t,
+        tau,
+    );
     apply(mesh, feature, &splits);
+    if let Some((o, round)) = origins {
+        for &((a, b), _, _) in &splits {
+            o.push_split(a, b, round);
+        }
+    }
     splits.len()
 }
 
@@ -96,11 +144,12 @@ const EDGES_PER_TASK: usize = 4096;
 fn splits<E: Evaluator + ?Sized>(
     mesh: &Mesh,
     feature: &[bool],
+    part: Option<&Origins>,
     f: &E,
     t: f64,
     tau: f64,
 ) -> Vec<((u32, u32), DVec3, DVec3)> {
-    let edges = inner_edges(mesh, feature);
+    let edges = inner_edges(mesh, feature, part);
     let (p, n) = (&mesh.positions, &mesh.normals);
     edges
         .par_chunks(EDGES_PER_TASK)
@@ -132,8 +181,9 @@ fn splits<E: Evaluator + ?Sized>(
 
 /// The edges (smaller index first, sorted) with exactly two triangles and
 /// not both ends on a crease. A boundary edge lies on the domain's face,
-/// where a projected midpoint would not.
-fn inner_edges(mesh: &Mesh, feature: &[bool]) -> Vec<(u32, u32)> {
+/// where a projected midpoint would not. In a `part` of a mesh, also the
+/// edges with one triangle off ∂Ω (a seam: see the module doc).
+fn inner_edges(mesh: &Mesh, feature: &[bool], part: Option<&Origins>) -> Vec<(u32, u32)> {
     let crease = |v: u32| feature.get(v as usize).copied().unwrap_or(false);
     let mut uses: Vec<(u32, u32)> = mesh
         .triangles
@@ -151,7 +201,9 @@ fn inner_edges(mesh: &Mesh, feature: &[bool]) -> Vec<(u32, u32)> {
         while j < uses.len() && uses[j] == uses[i] {
             j += 1;
         }
-        if j - i == 2 {
+        let (a, b) = uses[i];
+        let seam = j - i == 1 && part.is_some_and(|o| !o.on_boundary(a, b));
+        if j - i == 2 || seam {
             uses[kept] = uses[i];
             kept += 1;
         }

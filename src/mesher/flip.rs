@@ -82,6 +82,9 @@ pub(crate) struct Flips {
     aspect: Vec<f64>,
     /// Vertices whose joining edges are never flipped (crease points).
     keep: Vec<bool>,
+    /// Vertices never joined by a new edge (a brick's seam: the next brick
+    /// may join them already).
+    apart: Vec<bool>,
 }
 
 impl Flips {
@@ -133,6 +136,7 @@ impl Flips {
             degree,
             aspect,
             keep: Vec::new(),
+            apart: Vec::new(),
         }
     }
 
@@ -211,6 +215,10 @@ impl Flips {
         if kept(p) && kept(q) {
             return None;
         }
+        let apart = |v: u32| self.apart.get(v as usize).copied().unwrap_or(false);
+        if apart(c) && apart(d) {
+            return None;
+        }
         let old = [[p, q, c], [q, p, d]];
         let new = [[c, p, d], [d, q, c]];
         let (n1, n2) = (aspect_ratio(mesh, new[0]), aspect_ratio(mesh, new[1]));
@@ -268,6 +276,12 @@ impl Flips {
     /// of [`super::crease`]).
     pub fn keep_edges_between(&mut self, keep: &[bool]) {
         self.keep = keep.to_vec();
+    }
+
+    /// Never join two vertices flagged in `apart` by a flip (a brick's
+    /// seam vertices: another brick may join them).
+    pub fn keep_apart(&mut self, apart: &[bool]) {
+        self.apart = apart.to_vec();
     }
 
     /// The aspect ratio of every triangle as the last [`Flips::run`] left

@@ -15,6 +15,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 pub mod adapt;
+pub mod brick;
 pub mod chord;
 pub mod crease;
 pub mod flip;

@@ -225,14 +225,33 @@ pub fn smooth_keeping<E: Evaluator + ?Sized>(
     keep: &[bool],
     cancel: &Cancel,
 ) -> Result<usize, Cancelled> {
+    smooth_part(mesh, f, t, passes, keep, &[], cancel)
+}
+
+/// [`smooth_keeping`] on a brick's part of a mesh: the vertices flagged in
+/// `seam` stay where they are, and no flip joins two of them (the next
+/// brick may join them already), so the seam stays closed and 2-manifold.
+pub fn smooth_part<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    f: &E,
+    t: f64,
+    passes: usize,
+    keep: &[bool],
+    seam: &[bool],
+    cancel: &Cancel,
+) -> Result<usize, Cancelled> {
     if passes == 0 || mesh.triangles.is_empty() {
         return Ok(0);
     }
     let mut accepted = 0;
     let mut flips = Flips::new(mesh);
     flips.keep_edges_between(keep);
+    flips.keep_apart(seam);
     let mut pinned = flips.pinned(mesh);
     for (p, &k) in pinned.iter_mut().zip(keep) {
+        *p |= k;
+    }
+    for (p, &k) in pinned.iter_mut().zip(seam) {
         *p |= k;
     }
     let mut moved = vec![false; mesh.positions.len()];

@@ -12,8 +12,9 @@
 //! # Contract
 //!
 //! [`weld_coincident`] collapses every edge whose two ends coincide to
-//! rounding (every coordinate within 8 ulps), keeping the lower index and
-//! its position, when the collapse
+//! rounding (every coordinate within 8 ulps), keeping the end with the
+//! lower position (coordinates compared in order, then the index), when
+//! the collapse
 //! keeps the mesh a 2-manifold: the edge has exactly two triangles, and
 //! the ends' other neighbours are only the two vertices opposite the edge
 //! (the link condition). The edge's two triangles (of zero area) go; the
@@ -21,7 +22,11 @@
 //! their shapes change by rounding only (the two ends were one point). Orientation,
 //! components and genus are kept. Vertices left without a triangle are
 //! removed and the rest renumbered in order; `cell_of` (a value per
-//! triangle) follows the triangles.
+//! triangle) follows the triangles. The edges are tried in the order of
+//! their ends' positions, so the result depends on the mesh's geometry and
+//! connectivity, not on its numbering: a brick of a bricked run welds its
+//! coincident vertices as the whole run does ([`weld_coincident_in`]
+//! leaves alone the vertices on a brick's seam).
 //!
 //! # Limits
 //!
@@ -37,24 +42,40 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use glam::DVec3;
 
 use crate::mesh::Mesh;
+use crate::mesh::origin::Origins;
 
 /// Collapses the edges of `mesh` whose ends coincide (see the module doc);
 /// `cell_of` holds one value per triangle and follows them. Returns how
 /// many edges were collapsed.
 pub fn weld_coincident(mesh: &mut Mesh, cell_of: &mut Vec<u32>) -> usize {
+    weld_coincident_in(mesh, cell_of, &[], None)
+}
+
+/// [`weld_coincident`] that leaves alone the edges with an end flagged in
+/// `frozen` (missing flags are false), and keeps `origins` (one per
+/// vertex, when given) in step with the vertices.
+pub fn weld_coincident_in(
+    mesh: &mut Mesh,
+    cell_of: &mut Vec<u32>,
+    frozen: &[bool],
+    origins: Option<&mut Origins>,
+) -> usize {
     let p = &mesh.positions;
-    let same = |a: u32, b: u32| a != b && coincident(p[a as usize], p[b as usize]);
+    let free = |v: u32| !frozen.get(v as usize).copied().unwrap_or(false);
+    let same =
+        |a: u32, b: u32| a != b && free(a) && free(b) && coincident(p[a as usize], p[b as usize]);
+    let first = |a: u32, b: u32| lower(p, a, b) == std::cmp::Ordering::Less;
     let mut pending: Vec<(u32, u32)> = mesh
         .triangles
         .iter()
         .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
         .filter(|&(a, b)| same(a, b))
-        .map(|(a, b)| (a.min(b), a.max(b)))
+        .map(|(a, b)| if first(a, b) { (a, b) } else { (b, a) })
         .collect();
     if pending.is_empty() {
         return 0;
     }
-    pending.sort_unstable();
+    pending.sort_unstable_by(|x, y| lower(p, x.0, y.0).then(lower(p, x.1, y.1)));
     pending.dedup();
     let mut star = Stars::around(mesh, &pending);
     let mut alive = vec![true; mesh.triangles.len()];
@@ -67,7 +88,11 @@ pub fn weld_coincident(mesh: &mut Mesh, cell_of: &mut Vec<u32>) -> usize {
             if keep == drop {
                 return false;
             }
-            let (keep, drop) = (keep.min(drop), keep.max(drop));
+            let (keep, drop) = if lower(&mesh.positions, keep, drop).is_lt() {
+                (keep, drop)
+            } else {
+                (drop, keep)
+            };
             if star.collapse(mesh, &mut alive, keep, drop) {
                 welded += 1;
                 return false;
@@ -79,9 +104,23 @@ pub fn weld_coincident(mesh: &mut Mesh, cell_of: &mut Vec<u32>) -> usize {
         }
     }
     if welded > 0 {
-        compact(mesh, cell_of, &alive);
+        let used = compact(mesh, cell_of, &alive);
+        if let Some(o) = origins {
+            o.retain(&used);
+        }
     }
     welded
+}
+
+/// Vertices in the order of their positions (coordinates in order), then
+/// of their indices.
+fn lower(p: &[DVec3], a: u32, b: u32) -> std::cmp::Ordering {
+    let (pa, pb) = (p[a as usize], p[b as usize]);
+    (0..3)
+        .map(|k| pa[k].total_cmp(&pb[k]))
+        .find(|o| o.is_ne())
+        .unwrap_or(std::cmp::Ordering::Equal)
+        .then(a.cmp(&b))
 }
 
 /// Ulps of the coordinates within which two points count as one.
@@ -198,8 +237,9 @@ impl Stars {
 }
 
 /// Drops the dead triangles (and their `cell_of` entries) and the vertices
-/// no triangle uses, renumbering the rest in order.
-fn compact(mesh: &mut Mesh, cell_of: &mut Vec<u32>, alive: &[bool]) {
+/// no triangle uses, renumbering the rest in order; returns which vertices
+/// stayed.
+fn compact(mesh: &mut Mesh, cell_of: &mut Vec<u32>, alive: &[bool]) -> Vec<bool> {
     retain_flagged(cell_of, alive);
     retain_flagged(&mut mesh.triangles, alive);
     let mut used = vec![false; mesh.positions.len()];
@@ -222,6 +262,7 @@ fn compact(mesh: &mut Mesh, cell_of: &mut Vec<u32>, alive: &[bool]) {
     for t in &mut mesh.triangles {
         *t = t.map(|v| index[v as usize]);
     }
+    used
 }
 
 /// Keeps the elements of `v` whose flag in `keep` is set, in order.

@@ -106,6 +106,29 @@ pub enum Leaf {
     /// May contain surface; the topology criterion still failed at the
     /// maximal level, or `F` is not defined everywhere on the cell.
     Ambiguous,
+    /// Not explored: the cell does not touch the [`Region`] the tree was
+    /// built for ([`Octree::build_region`]; bricked meshing only). Nothing
+    /// is known of it.
+    Outside,
+}
+
+/// A closed box of the domain in units of a [`MAX_LEVEL`] cell (each
+/// coordinate in `[0, 2^MAX_LEVEL]`): the part of Ω a brick needs
+/// ([`Octree::build_region`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Region {
+    /// Lowest corner.
+    pub lo: [u64; 3],
+    /// Highest corner (closed).
+    pub hi: [u64; 3],
+}
+
+impl Region {
+    /// Whether the closed box of node `n` meets the region.
+    pub fn meets(&self, n: &Node) -> bool {
+        let [lo, hi] = n.grid_box();
+        (0..3).all(|k| lo[k] <= self.hi[k] && hi[k] >= self.lo[k])
+    }
 }
 
 /// What a node is: subdivided, or a leaf and how it ended.
@@ -155,6 +178,14 @@ impl Node {
             Kind::Leaf(l) => Some(l),
             Kind::Branch { .. } => None,
         }
+    }
+
+    /// The node's closed box in units of a [`MAX_LEVEL`] cell: its low and
+    /// high corners.
+    pub fn grid_box(&self) -> [[u64; 3]; 2] {
+        let shift = MAX_LEVEL - self.level.min(MAX_LEVEL);
+        let lo = self.ijk.map(|k| u64::from(k) << shift);
+        [lo, lo.map(|k| k + (1u64 << shift))]
     }
 
     /// Index of child `o`, if the node is subdivided.
@@ -302,7 +333,7 @@ pub struct Octree {
 }
 
 /// Deepest level allowed: integer positions must fit in `u32` with room.
-pub(crate) const MAX_LEVEL: u8 = 20;
+pub const MAX_LEVEL: u8 = 20;
 
 /// Extra levels below an ambiguous leaf searched for a proof that it is
 /// empty (see [`Octree::clear_false_ambiguity`]).
@@ -706,11 +737,24 @@ struct Builder<'a, E: ?Sized> {
     /// Ambiguous leaves at the maximal level, with their tapes, for the
     /// proof search.
     ambiguous: Vec<(u32, Tape)>,
+    /// Build only the nodes that meet this region
+    /// ([`Octree::build_region`]), once `settled`.
+    region: Option<Region>,
+    /// No later choice of evaluator depends on cells outside the region:
+    /// the interpretation budget is closed, or no cell of the last level
+    /// judged had a long program (their descendants have none either).
+    settled: bool,
 }
 
 impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
     /// The builder of a tree that is only its root, and the root's tape.
-    fn new(f: &'a E, domain: Bounds, opts: &'a OctreeOptions, refine: &'a Refine) -> (Self, Tape) {
+    fn new(
+        f: &'a E,
+        domain: Bounds,
+        opts: &'a OctreeOptions,
+        refine: &'a Refine,
+        region: Option<Region>,
+    ) -> (Self, Tape) {
         let max_level = opts.max_level.min(MAX_LEVEL);
         let tree = Octree {
             nodes: vec![Node::open(0, [0; 3])],
@@ -743,6 +787,8 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             leaf_live: 0,
             tau,
             ambiguous: Vec::new(),
+            region,
+            settled: false,
         };
         (b, root)
     }
@@ -785,9 +831,9 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
     where
         E: Sync,
     {
-        let long = self
-            .budget
-            .spend(frontier.iter().map(|(_, t)| t.long_cost()).sum());
+        let cost = frontier.iter().map(|(_, t)| t.long_cost()).sum();
+        let long = self.budget.spend(cost);
+        self.settled |= cost == 0 || !self.budget.open;
         let this = &*self;
         frontier
             .par_chunks(BATCH)
@@ -896,9 +942,17 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
                     let parent = tree.nodes[i];
                     tree.nodes[i].kind = Kind::Branch { first_child: first };
                     for o in Octant::ALL {
-                        tree.nodes
-                            .push(Node::open(level + 1, o.child_ijk(parent.ijk)));
-                        next.push((first + u32::from(o.0), tape.clone()));
+                        let mut child = Node::open(level + 1, o.child_ijk(parent.ijk));
+                        let outside = self
+                            .region
+                            .filter(|_| self.settled)
+                            .is_some_and(|r| !r.meets(&child));
+                        if outside {
+                            child.kind = Kind::Leaf(Leaf::Outside);
+                        } else {
+                            next.push((first + u32::from(o.0), tape.clone()));
+                        }
+                        tree.nodes.push(child);
                     }
                 }
             }
@@ -918,6 +972,12 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
                 .map(|(_, t)| t.long_cost())
                 .sum::<u64>(),
         );
+        // Outside the region the verdicts do not matter (the budget above
+        // counted them all, as a whole run does).
+        if let Some(r) = self.region {
+            let nodes = &self.tree.nodes;
+            self.ambiguous.retain(|(i, _)| r.meets(&nodes[*i as usize]));
+        }
         self.tree
             .clear_false_ambiguity(self.f, self.opts, &self.ambiguous, long);
         self.tree.count();
@@ -998,7 +1058,42 @@ impl Octree {
         progress: &(dyn Fn(u8, usize) + Sync),
         cancel: &Cancel,
     ) -> Result<Octree, Cancelled> {
-        let (mut b, root) = Builder::new(f, domain, opts, refine);
+        Octree::build_in(f, domain, opts, refine, None, progress, cancel)
+    }
+
+    /// [`Octree::build_cancellable`] for one brick of a bricked run: the
+    /// nodes whose closed box meets `region` are built and judged exactly
+    /// as the whole tree's are; the others become [`Leaf::Outside`]
+    /// leaves, unexplored. Every choice stays the whole run's: the levels
+    /// whose choice of evaluator depends on all their cells (the
+    /// interpretation budget of the module doc's "Pruning") are built
+    /// whole, and the region is applied from the first level after which
+    /// none does. So every leaf that meets the region is the whole tree's
+    /// leaf, with the same fate and program, unless the pruned programs
+    /// outgrow `STORE_LIMIT` (then a whole run's verdicts depend on thread
+    /// timing as well).
+    pub fn build_region<E: Evaluator + ?Sized>(
+        f: &E,
+        domain: Bounds,
+        opts: &OctreeOptions,
+        region: Region,
+        progress: &(dyn Fn(u8, usize) + Sync),
+        cancel: &Cancel,
+    ) -> Result<Octree, Cancelled> {
+        let refine = Refine::default();
+        Octree::build_in(f, domain, opts, &refine, Some(region), progress, cancel)
+    }
+
+    fn build_in<E: Evaluator + ?Sized>(
+        f: &E,
+        domain: Bounds,
+        opts: &OctreeOptions,
+        refine: &Refine,
+        region: Option<Region>,
+        progress: &(dyn Fn(u8, usize) + Sync),
+        cancel: &Cancel,
+    ) -> Result<Octree, Cancelled> {
+        let (mut b, root) = Builder::new(f, domain, opts, refine, region);
         let mut frontier: Vec<(u32, Tape)> = vec![(0, root)];
         let mut evaluated = 0;
         for level in 0..=b.max_level {
@@ -1054,7 +1149,7 @@ impl Octree {
                 Some(Leaf::Empty) => s.empty_leaves += 1,
                 Some(Leaf::Surface) => s.surface_leaves += 1,
                 Some(Leaf::Ambiguous) => s.ambiguous_leaves += 1,
-                None => continue,
+                Some(Leaf::Outside) | None => continue,
             }
             if n.leaf() != Some(Leaf::Empty) {
                 s.max_level_reached = s.max_level_reached.max(n.level);

@@ -46,6 +46,7 @@ use crate::dual::{self, Corner, DualCell};
 use crate::eval::Evaluator;
 use crate::eval::sample::{normals_at, values_at};
 use crate::mesh::Mesh;
+use crate::mesh::origin::{self, Origins};
 use crate::octree::{Leaf, Octree};
 use crate::roots::{Segment, bisect, bisect_batch, project};
 
@@ -138,8 +139,10 @@ const BATCH: usize = 256;
 impl CornerValues {
     /// Values of `f(·, t)` at every leaf centre (batch calls, in parallel).
     pub fn at_leaves<E: Evaluator + ?Sized>(tree: &Octree, f: &E, t: f64) -> CornerValues {
+        // An unexplored leaf (a brick's tree) is no dual corner of
+        // interest: it keeps NaN.
         let leaves: Vec<usize> = (0..tree.nodes.len())
-            .filter(|&i| tree.nodes[i].is_leaf())
+            .filter(|&i| tree.nodes[i].is_leaf() && tree.nodes[i].leaf() != Some(Leaf::Outside))
             .collect();
         let centres: Vec<DVec3> = leaves
             .iter()
@@ -174,6 +177,18 @@ pub fn active_cells<E: Evaluator + ?Sized>(
     t: f64,
     values: &mut CornerValues,
 ) -> (Vec<DualCell>, usize) {
+    active_cells_where(tree, f, t, values, |_| true)
+}
+
+/// [`active_cells`] among the dual cells for which `keep` holds (a brick's
+/// own: `keep` is asked first, before any value is read).
+pub fn active_cells_where<E: Evaluator + ?Sized>(
+    tree: &Octree,
+    f: &E,
+    t: f64,
+    values: &mut CornerValues,
+    keep: impl Fn(&DualCell) -> bool,
+) -> (Vec<DualCell>, usize) {
     let negative = |v: f64| v < 0.0;
     let changes_sign = |values: &CornerValues, cell: &DualCell| {
         let first = negative(values.get(cell[0]));
@@ -185,6 +200,9 @@ pub fn active_cells<E: Evaluator + ?Sized>(
     let mut cells: Vec<(DualCell, bool)> = Vec::new();
     let mut new_ghosts: Vec<Corner> = Vec::new();
     dual::for_each_cell(tree, |cell| {
+        if !keep(&cell) {
+            return;
+        }
         count += 1;
         let mut pending = false;
         for &c in &cell {
@@ -225,6 +243,32 @@ pub fn extract<E: Evaluator + ?Sized>(
     active: &[DualCell],
     cancel: &Cancel,
 ) -> Result<(Mesh, ExtractStats, Vec<u32>), Cancelled> {
+    let (mesh, stats, cell_of, _) = extract_in(tree, f, t, values, active, false, cancel)?;
+    Ok((mesh, stats, cell_of))
+}
+
+/// [`extract`], also giving every vertex its [`Origins`] (its id and the
+/// faces of Ω it lies on; [`crate::mesh::origin`]).
+pub fn extract_with_origins<E: Evaluator + ?Sized>(
+    tree: &Octree,
+    f: &E,
+    t: f64,
+    values: &CornerValues,
+    active: &[DualCell],
+    cancel: &Cancel,
+) -> Result<(Mesh, ExtractStats, Vec<u32>, Origins), Cancelled> {
+    extract_in(tree, f, t, values, active, true, cancel)
+}
+
+fn extract_in<E: Evaluator + ?Sized>(
+    tree: &Octree,
+    f: &E,
+    t: f64,
+    values: &CornerValues,
+    active: &[DualCell],
+    origins: bool,
+    cancel: &Cancel,
+) -> Result<(Mesh, ExtractStats, Vec<u32>, Origins), Cancelled> {
     let nodes = &tree.nodes;
     let mut stats = ExtractStats {
         active_cells: active.len(),
@@ -289,7 +333,7 @@ pub fn extract<E: Evaluator + ?Sized>(
             let segments: Vec<Segment> = chunk
                 .iter()
                 .map(|k| {
-                    let (a, b) = k.ends();
+                    let (a, b) = canonical(tree, k.ends());
                     Segment {
                         a: a.position(tree),
                         b: b.position(tree),
@@ -325,7 +369,42 @@ pub fn extract<E: Evaluator + ?Sized>(
         triangles,
     };
     mesh.normals = normals_at(f, t, &mesh.positions);
-    Ok((mesh, stats, cell_of))
+    let origins = if origins {
+        origins_of(tree, active, &keys)
+    } else {
+        Origins::default()
+    };
+    Ok((mesh, stats, cell_of, origins))
+}
+
+/// The ends of an edge in the order of their names in any tree
+/// ([`dual::global`]), so that bisection runs the same way in a brick's
+/// tree as in the whole one.
+fn canonical(tree: &Octree, (a, b): (Corner, Corner)) -> (Corner, Corner) {
+    if dual::global(tree, a) <= dual::global(tree, b) {
+        (a, b)
+    } else {
+        (b, a)
+    }
+}
+
+/// The origins of the vertices numbered by `keys`.
+fn origins_of(tree: &Octree, active: &[DualCell], keys: &[Key]) -> Origins {
+    let (ids, sides) = keys
+        .par_iter()
+        .map(|k| {
+            if k.is_edge() {
+                let (a, b) = canonical(tree, k.ends());
+                let id = origin::mix(origin::EDGE, dual::global(tree, a), dual::global(tree, b));
+                (id, a.mirror & b.mirror)
+            } else {
+                let [x, y, z] = dual::vertex(tree, &active[k.cell() as usize]).map(u128::from);
+                let at = (x << 42) | (y << 21) | z;
+                (origin::mix(origin::INTERIOR, at, k.0 & 0xff), 0)
+            }
+        })
+        .unzip();
+    Origins { ids, sides }
 }
 
 /// Polygonises active dual cell number `ci` into `out`.

@@ -9,6 +9,7 @@
 mod support;
 
 mod adapt;
+mod bricks;
 mod corpus_mesh;
 mod crease;
 mod csg;

@@ -1108,6 +1108,7 @@ pub fn bad_edge_sites(s: &Surface, mesh: &Mesh, opts: &MeshOptions, domain: &Bou
                     Some(Leaf::Empty) => "empty",
                     Some(Leaf::Surface) => "surface",
                     Some(Leaf::Ambiguous) => "ambiguous",
+                    Some(Leaf::Outside) => "outside",
                     None => "inner",
                 };
                 leaves.push((node.level, kind));

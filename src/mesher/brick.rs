@@ -1,0 +1,383 @@
+//! Bricked meshing (SPEC §2 `--bricks`): the domain cut at octree level
+//! `B` into `8^B` bricks, each meshed on its own, the parts welded by their
+//! vertices' ids.
+//!
+//! # Contract
+//!
+//! Every vertex of the octree's cell complex — and so every dual cell —
+//! belongs to exactly one brick: the brick whose half-open box holds it
+//! (closed on Ω's high faces). A brick ([`mesh_brick`]) builds the octree
+//! only where it meets its closed box ([`Octree::build_region`]: those
+//! nodes are the whole tree's, with the same fates and programs), and
+//! polygonises its own dual cells with the whole run's rules; its
+//! vertices carry [`Origins`], ids that depend on the structure that made
+//! them. Then:
+//!
+//! - **with `smooth = 0` and no creases, the union of the parts is the
+//!   whole run's mesh**: the same triangles over the same positions, bit
+//!   for bit ([`merge`] welds equal ids). Extraction, the weld of
+//!   coincident vertices and the chord splits decide each vertex, edge and
+//!   triangle from its own structure (see [`super::weld`], [`super::chord`]).
+//! - **With smoothing or creases**, the vertices on a seam (an edge with
+//!   one triangle in the part, off ∂Ω) are pinned: both sides keep them
+//!   where extraction and the chord splits put them, so the seams stay
+//!   closed and 2-manifold; inside a brick the stages run as in a whole
+//!   run, on the brick's triangles only.
+//!
+//! # Limits
+//!
+//! - Exact equality needs the whole run to make the same choices: it does
+//!   unless the octree's pruned programs outgrow their store (see
+//!   [`Octree::build_region`]), or a cluster of coincident vertices (`f`
+//!   exactly 0 at a leaf centre) lies on a seam (the part leaves it
+//!   unwelded).
+//! - Each brick repeats the levels of the octree above `B` (and, with
+//!   pruning, those whose choice of evaluator is not settled yet): cheap
+//!   for `B ≤ 3`, the point of bricks being levels far below.
+//! - `--tolerance` is a whole-mesh adaptation: it is not bricked.
+
+use std::time::Instant;
+
+use rustc_hash::FxHashMap as HashMap;
+
+use super::{MeshOptions, MeshReport, Stage, Timings, chord, crease, ms, smooth, weld};
+use crate::cancel::{Cancel, Cancelled};
+use crate::dual;
+use crate::eval::Evaluator;
+use crate::geometry::Bounds;
+use crate::mesh::origin::{self, Origins};
+use crate::mesh::{Mesh, quality, topology};
+use crate::octree::{Leaf, MAX_LEVEL, Node, Octree, OctreeStats, Region};
+use crate::polygonize::extract;
+
+/// Deepest brick level: `8^6` bricks.
+pub const MAX_BRICK_LEVEL: u8 = 6;
+
+/// One brick of `8^level`, by its integer position.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Brick {
+    /// Brick level `B`: `2^B` bricks along each axis.
+    pub level: u8,
+    /// Integer position, each in `[0, 2^B)`.
+    pub ijk: [u32; 3],
+}
+
+impl Brick {
+    /// Brick `index` of `8^level` (x fastest, then y, then z); `None` when
+    /// `level` exceeds [`MAX_BRICK_LEVEL`] or `index` is out of range.
+    pub fn new(level: u8, index: u32) -> Option<Brick> {
+        let n = 1u32 << level.min(MAX_BRICK_LEVEL);
+        (level <= MAX_BRICK_LEVEL && u64::from(index) < u64::from(n).pow(3)).then(|| Brick {
+            level,
+            ijk: [index % n, (index / n) % n, index / (n * n)],
+        })
+    }
+
+    /// How many bricks level `level` has.
+    pub fn count(level: u8) -> u32 {
+        1u32 << (3 * u32::from(level.min(MAX_BRICK_LEVEL)))
+    }
+
+    /// The brick's index (the inverse of [`Brick::new`]).
+    pub fn index(&self) -> u32 {
+        let n = 1u32 << self.level;
+        self.ijk[0] + n * (self.ijk[1] + n * self.ijk[2])
+    }
+
+    /// Low corner and side, in units of a maximal-level cell.
+    fn span(&self) -> ([u64; 3], u64) {
+        let side = 1u64 << (MAX_LEVEL - self.level);
+        (self.ijk.map(|k| u64::from(k) * side), side)
+    }
+
+    /// The brick's closed box: the octree it needs.
+    pub fn region(&self) -> Region {
+        let (lo, side) = self.span();
+        Region {
+            lo,
+            hi: lo.map(|k| k + side),
+        }
+    }
+
+    /// Whether the brick owns the grid point `v` (units of a maximal-level
+    /// cell): its half-open box, closed on Ω's high faces.
+    pub fn owns(&self, v: [u64; 3]) -> bool {
+        let (lo, side) = self.span();
+        let top = 1u64 << MAX_LEVEL;
+        (0..3)
+            .all(|k| lo[k] <= v[k] && (v[k] < lo[k] + side || (v[k] == top && lo[k] + side == top)))
+    }
+
+    /// Whether the brick owns node `n` (its low corner).
+    fn owns_node(&self, n: &Node) -> bool {
+        self.owns(n.grid_box()[0])
+    }
+}
+
+/// A brick's mesh and its vertices' origins.
+#[derive(Clone, Debug)]
+pub struct Part {
+    /// The brick's triangles (open along its seams).
+    pub mesh: Mesh,
+    /// Per vertex, its id and the faces of Ω it lies on.
+    pub origins: Origins,
+    /// The brick's share of the whole run's figures (see [`merge_reports`]).
+    pub report: MeshReport,
+}
+
+/// Meshes brick `brick` of `f(·, opts.octree.t) = 0` over `opts.domain`
+/// or `domain` (see the module doc). `progress` is told as
+/// [`super::mesh_with`] tells it.
+pub fn mesh_brick<E: Evaluator + ?Sized>(
+    f: &E,
+    domain: Bounds,
+    opts: &MeshOptions,
+    brick: Brick,
+    progress: &(dyn Fn(Stage) + Sync),
+    cancel: &Cancel,
+) -> Result<Part, Cancelled> {
+    let start = Instant::now();
+    let domain = opts.domain.unwrap_or(domain);
+    let t = opts.octree.t;
+    let t0 = Instant::now();
+    let tree = Octree::build_region(
+        f,
+        domain,
+        &opts.octree,
+        brick.region(),
+        &|level, cells| progress(Stage::Octree { level, cells }),
+        cancel,
+    )?;
+    let octree_ms = ms(t0);
+
+    cancel.check()?;
+    progress(Stage::Dual);
+    let t0 = Instant::now();
+    let field = tree.field(f);
+    let mut values = extract::CornerValues::at_leaves(&tree, &field, t);
+    let owns = |cell: &dual::DualCell| brick.owns(dual::vertex(&tree, cell));
+    let (active, dual_cells) = extract::active_cells_where(&tree, &field, t, &mut values, owns);
+    let dual_ms = ms(t0);
+
+    cancel.check()?;
+    progress(Stage::Polygonize);
+    let t0 = Instant::now();
+    let (mut mesh, ex, mut cell_of, mut origins) =
+        extract::extract_with_origins(&tree, &field, t, &values, &active, cancel)?;
+    let on_seam = seam(&mesh, &origins);
+    weld::weld_coincident_in(&mut mesh, &mut cell_of, &on_seam, Some(&mut origins));
+    let (mut feature, crease_cells) = if opts.creases {
+        let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
+        let n0 = mesh.positions.len();
+        let c = crease::sharpen(&mut mesh, &cell_of, &bounds, &field, t);
+        name_crease_points(&mut origins, brick, n0, mesh.positions.len());
+        (c.feature, c.cells)
+    } else {
+        (vec![false; mesh.positions.len()], 0)
+    };
+    drop((values, active, cell_of));
+    let tau = opts.octree.chord_tolerance(domain);
+    if let Some(tau) = tau {
+        chord::split_edges_in(
+            &mut mesh,
+            &mut feature,
+            Some(&mut origins),
+            &field,
+            t,
+            tau,
+            cancel,
+        )?;
+    }
+    let polygonize_ms = ms(t0);
+
+    cancel.check()?;
+    progress(Stage::Smooth);
+    let t0 = Instant::now();
+    let on_seam = seam(&mesh, &origins);
+    let moves = smooth::smooth_part(
+        &mut mesh,
+        &field,
+        t,
+        opts.smooth,
+        &feature,
+        &on_seam,
+        cancel,
+    )?;
+    if let Some(tau) = tau {
+        // The round after smoothing: numbered after the others.
+        let round = Some((&mut origins, chord::ROUNDS as u32));
+        chord::split_round_in(&mut mesh, &mut feature, round, &field, t, tau);
+    }
+    let smooth_ms = ms(t0);
+
+    let octree = owned_stats(&tree, brick);
+    let report = MeshReport {
+        triangles: mesh.triangles.len(),
+        vertices: mesh.positions.len(),
+        aspect_good: 0.0,
+        topology: topology::Topology::default(),
+        ambiguous_cells: octree.ambiguous_leaves,
+        guaranteed: octree.ambiguous_leaves == 0,
+        octree,
+        dual_cells,
+        active_cells: ex.active_cells,
+        smoothing_moves: moves,
+        crease_vertices: crease_cells,
+        timings: Timings {
+            octree: octree_ms,
+            dual: dual_ms,
+            polygonize: polygonize_ms,
+            smooth: smooth_ms,
+            adapt: 0.0,
+            total: ms(start),
+        },
+    };
+    Ok(Part {
+        mesh,
+        origins,
+        report,
+    })
+}
+
+/// Per vertex, whether it is on a seam: an end of an edge with one
+/// triangle in the part that does not lie on ∂Ω.
+pub fn seam(mesh: &Mesh, origins: &Origins) -> Vec<bool> {
+    let mut uses: HashMap<(u32, u32), u32> = HashMap::default();
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let mut on = vec![false; mesh.positions.len()];
+    for (&(a, b), &n) in &uses {
+        if n == 1 && !origins.on_boundary(a, b) {
+            on[a as usize] = true;
+            on[b as usize] = true;
+        }
+    }
+    on
+}
+
+/// Ids for the feature points `n0..n` that [`crease::sharpen`] added: they
+/// lie inside the brick's cells, so the brick and their number name them.
+fn name_crease_points(origins: &mut Origins, brick: Brick, n0: usize, n: usize) {
+    for k in n0..n {
+        let id = origin::mix(origin::CREASE, u128::from(brick.index()), k as u128);
+        origins.ids.push(id);
+        origins.sides.push(0);
+    }
+}
+
+/// The octree's counts over the nodes the brick owns (by their low
+/// corners): summed over all bricks, the whole tree's.
+fn owned_stats(tree: &Octree, brick: Brick) -> OctreeStats {
+    let mut s = OctreeStats::default();
+    for n in tree.nodes.iter().filter(|n| brick.owns_node(n)) {
+        s.nodes += 1;
+        match n.leaf() {
+            Some(Leaf::Empty) => s.empty_leaves += 1,
+            Some(Leaf::Surface) => s.surface_leaves += 1,
+            Some(Leaf::Ambiguous) => s.ambiguous_leaves += 1,
+            Some(Leaf::Outside) | None => continue,
+        }
+        if n.leaf() != Some(Leaf::Empty) {
+            s.max_level_reached = s.max_level_reached.max(n.level);
+        }
+    }
+    s
+}
+
+/// Parts welded into one mesh: vertices with equal ids become one (the
+/// first part's position and flags), the others are appended in order.
+#[derive(Default)]
+pub struct Merger {
+    mesh: Mesh,
+    origins: Origins,
+    index: HashMap<origin::VertexId, u32>,
+}
+
+impl Merger {
+    /// Adds a part's triangles, welding its vertices to those already in.
+    pub fn add(&mut self, part: &Part) {
+        let (m, o) = (&part.mesh, &part.origins);
+        let map: Vec<u32> = (0..m.positions.len())
+            .map(|v| {
+                let next = self.mesh.positions.len() as u32;
+                let at = *self.index.entry(o.ids[v]).or_insert(next);
+                if at == next {
+                    self.mesh.positions.push(m.positions[v]);
+                    self.mesh.normals.push(m.normals[v]);
+                    self.mesh.ambiguous.push(m.ambiguous[v]);
+                    self.origins.ids.push(o.ids[v]);
+                    self.origins.sides.push(o.sides[v]);
+                }
+                at
+            })
+            .collect();
+        let tris = m.triangles.iter().map(|t| t.map(|v| map[v as usize]));
+        self.mesh.triangles.extend(tris);
+    }
+
+    /// The welded mesh and its vertices' origins.
+    pub fn finish(self) -> (Mesh, Origins) {
+        (self.mesh, self.origins)
+    }
+}
+
+/// Welds `parts` into one mesh ([`Merger`]).
+pub fn merge<'a>(parts: impl IntoIterator<Item = &'a Part>) -> (Mesh, Origins) {
+    let mut m = Merger::default();
+    for p in parts {
+        m.add(p);
+    }
+    m.finish()
+}
+
+/// The whole run's report from the parts' reports and the welded mesh
+/// (`domain`: the run's, for the boundary edges of the topology): counts
+/// summed, the deepest level the deepest, the topology and quality
+/// measured on `mesh`, `total` the wall time given.
+pub fn merge_reports(
+    parts: &[MeshReport],
+    mesh: &Mesh,
+    domain: &Bounds,
+    total_ms: f64,
+) -> MeshReport {
+    let mut octree = OctreeStats::default();
+    let mut r = MeshReport {
+        triangles: mesh.triangles.len(),
+        vertices: mesh.positions.len(),
+        aspect_good: quality::aspect_good(mesh),
+        topology: topology::analyze_in(mesh, Some(domain)),
+        ambiguous_cells: 0,
+        guaranteed: true,
+        octree,
+        dual_cells: 0,
+        active_cells: 0,
+        smoothing_moves: 0,
+        crease_vertices: 0,
+        timings: Timings::default(),
+    };
+    for p in parts {
+        octree.nodes += p.octree.nodes;
+        octree.empty_leaves += p.octree.empty_leaves;
+        octree.surface_leaves += p.octree.surface_leaves;
+        octree.ambiguous_leaves += p.octree.ambiguous_leaves;
+        octree.max_level_reached = octree.max_level_reached.max(p.octree.max_level_reached);
+        r.dual_cells += p.dual_cells;
+        r.active_cells += p.active_cells;
+        r.smoothing_moves += p.smoothing_moves;
+        r.crease_vertices += p.crease_vertices;
+        let (a, b) = (&mut r.timings, &p.timings);
+        a.octree += b.octree;
+        a.dual += b.dual;
+        a.polygonize += b.polygonize;
+        a.smooth += b.smooth;
+    }
+    r.octree = octree;
+    r.ambiguous_cells = octree.ambiguous_leaves;
+    r.guaranteed = octree.ambiguous_leaves == 0;
+    r.timings.total = total_ms;
+    r
+}
