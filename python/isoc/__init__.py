@@ -595,6 +595,10 @@ class Surface:
     def __str__(self) -> str:
         return self.source
 
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        # Pickled as what compiles it again (for processes and clusters).
+        return (_recompile, (self.source, self._core.file, self.domain, self.params))
+
     def __repr__(self) -> str:
         return f"<isoc.Surface {self._core.file!r} domain={self.domain}>"
 
@@ -710,6 +714,7 @@ class Surface:
         t: float = 0.0,
         domain: Any = None,
         progress: Union[None, bool, Callable[[str, Optional[int], Optional[int]], Any]] = None,
+        bricks: Optional[int] = None,
     ) -> Mesh:
         """Mesh f = 0 with the robust adaptive mesher (``isoc mesh``).
 
@@ -754,6 +759,12 @@ class Surface:
             (``stage`` is ``"octree"``, ``"dual"``, ``"polygonize"`` or
             ``"smooth"``) while the mesher runs; ``True`` shows a ``tqdm``
             bar when tqdm is installed.
+        bricks : int, optional
+            Mesh the domain as ``8**bricks`` bricks in parallel and weld
+            them (``--bricks``; at most 6): the same mesh as without bricks
+            with ``smooth=0, creases=False``, closed and 2-manifold across
+            the seams otherwise. Not with `tolerance`. See
+            :func:`isoc.dask.mesh` to spread the bricks over a cluster.
 
         Returns
         -------
@@ -782,21 +793,9 @@ class Surface:
             progress = None
         if level is None:
             level = 10 if tolerance is not None else 7
-        core = self._core.mesh(
-            int(level),
-            None if tolerance is None else float(tolerance),
-            None if kmax is None else float(kmax),
-            bool(coarse),
-            int(min_level),
-            int(smooth),
-            bool(creases),
-            bool(certify),
-            bool(prune),
-            float(t),
-            _domain(domain),
-            None if threads is None else int(threads),
-            progress,
-        )
+        options = _options(level, tolerance, kmax, coarse, min_level, smooth, creases, certify, prune, t, domain)
+        bricks = None if bricks is None else _brick_level(bricks)
+        core = self._core.mesh(options, None if threads is None else int(threads), progress, bricks)
         return Mesh(core)
 
     def animate(
@@ -911,6 +910,38 @@ def compile(  # noqa: A001 (the package's verb)
     p = [(str(k), float(v)) for k, v in (params or {}).items()]
     core = _isoc.CoreSurface.compile(text, file, d, p)
     return Surface(core, text)
+
+
+def _options(level: int, tolerance: Optional[float], kmax: Optional[float], coarse: bool, min_level: int,
+             smooth: int, creases: bool, certify: bool, prune: bool, t: float, domain: Any) -> dict:
+    """`Surface.mesh`'s options as the core takes them (typed; checked there)."""
+    return {
+        "level": int(level),
+        "tolerance": None if tolerance is None else float(tolerance),
+        "kmax": None if kmax is None else float(kmax),
+        "coarse": bool(coarse),
+        "min_level": int(min_level),
+        "smooth": int(smooth),
+        "creases": bool(creases),
+        "certify": bool(certify),
+        "prune": bool(prune),
+        "t": float(t),
+        "domain": _domain(domain),
+    }
+
+
+def _recompile(source: str, file: str, domain: Sequence[float], params: dict) -> Surface:
+    """A pickled :class:`Surface` compiled again."""
+    return compile(source, domain=list(domain), params=dict(params), file=file)
+
+
+def _brick_level(bricks: Any) -> int:
+    """`bricks` checked: an int in 0..=6."""
+    if isinstance(bricks, bool) or not isinstance(bricks, numbers.Integral):
+        raise TypeError(f"bricks must be an int, not {type(bricks).__name__}")
+    if not 0 <= int(bricks) <= 6:
+        raise ValueError(f"bricks={bricks}: must be 0 to 6 (8**bricks bricks)")
+    return int(bricks)
 
 
 def load(path: Union[str, "os.PathLike[str]"], *, domain: Any = None, params: Optional[dict] = None) -> Surface:

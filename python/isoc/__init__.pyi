@@ -113,6 +113,7 @@ class Surface:
         t: float = ...,
         domain: _Domain = ...,
         progress: _Progress = ...,
+        bricks: Optional[int] = ...,
     ) -> Mesh: ...
     def animate(
         self,

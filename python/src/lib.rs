@@ -15,6 +15,10 @@ use pyo3::prelude::*;
 use rayon::prelude::*;
 
 use isoc::interval::Interval;
+use isoc::io::stream::StreamWriter;
+use isoc::mesh::sink::Sink;
+use isoc::mesher::brick::{self, PartInfo};
+use isoc::mesher::stitch::Stitcher;
 use isoc::mesher::{self, MeshOptions, Stage};
 use isoc::octree::{OctreeOptions, TopologyTest};
 use isoc::{Bounds, Cancel, CompileOptions, Surface};
@@ -145,6 +149,112 @@ fn run_cancellable<T: Send>(
             (None, Err(_)) => Err(PyRuntimeError::new_err("isoc: the meshing thread panicked")),
         }
     })
+}
+
+/// `Surface.mesh`'s options, as the dict `isoc._options` makes.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct Options {
+    level: u8,
+    tolerance: Option<f64>,
+    kmax: Option<f64>,
+    coarse: bool,
+    min_level: u8,
+    smooth: usize,
+    creases: bool,
+    certify: bool,
+    prune: bool,
+    t: f64,
+    domain: Option<[f64; 6]>,
+}
+
+/// The mesher's options from `Surface.mesh`'s, checked (as `isoc mesh`
+/// checks its flags).
+fn mesh_options(o: &Options) -> PyResult<MeshOptions> {
+    let Options {
+        level,
+        tolerance,
+        kmax,
+        coarse,
+        min_level,
+        smooth,
+        creases,
+        certify,
+        prune,
+        t,
+        domain,
+    } = *o;
+    if level > 20 {
+        return Err(value_error(format!("level {level}: at most 20")));
+    }
+    if let Some(k) = kmax
+        && !(k.is_finite() && k >= 0.0)
+    {
+        return Err(value_error(format!("kmax {k}: must be a number >= 0")));
+    }
+    if let Some(d) = tolerance
+        && !(d.is_finite() && d > 0.0)
+    {
+        return Err(value_error(format!(
+            "tolerance {d}: must be a positive number (a distance in domain units)"
+        )));
+    }
+    if min_level > level {
+        return Err(value_error(format!(
+            "min_level {min_level} is above level {level}"
+        )));
+    }
+    if !t.is_finite() {
+        return Err(value_error("t must be finite"));
+    }
+    let domain = match domain {
+        None => None,
+        Some(d) => {
+            let b = Bounds {
+                lo: [d[0], d[2], d[4]],
+                hi: [d[1], d[3], d[5]],
+            };
+            if (0..3).any(|k| !(b.lo[k].is_finite() && b.hi[k].is_finite() && b.lo[k] < b.hi[k])) {
+                return Err(value_error(format!(
+                    "domain {d:?}: every side must be finite and non-empty (a < b)"
+                )));
+            }
+            Some(b)
+        }
+    };
+    Ok(MeshOptions {
+        octree: OctreeOptions {
+            max_level: level,
+            min_level,
+            kmax: kmax.unwrap_or(OctreeOptions::default().kmax),
+            test: if certify {
+                TopologyTest::Certify
+            } else {
+                TopologyTest::Paper
+            },
+            t,
+            prune,
+            // Faithful `level` unless a criterion of the caller's replaces
+            // it (SPEC §2, as `isoc mesh`).
+            chord: OctreeOptions::default()
+                .chord
+                .filter(|_| !coarse && kmax.is_none() && tolerance.is_none()),
+        },
+        smooth,
+        domain,
+        creases,
+    })
+}
+
+/// [`mesh_options`] for a bricked run: no tolerance (a whole-mesh
+/// adaptation).
+fn bricked_options(o: &Options) -> PyResult<MeshOptions> {
+    if o.tolerance.is_some() {
+        return Err(value_error(
+            "tolerance adapts the whole mesh at once; it does not go with bricks",
+        ));
+    }
+    mesh_options(o)
 }
 
 /// A stage as `(name, level, cells)` for the progress callback.
@@ -407,89 +517,61 @@ impl CoreSurface {
         Ok(t.into_pyobject(py)?.into_any())
     }
 
-    /// Meshes the surface (see `isoc.Surface.mesh`).
-    #[pyo3(signature = (level, tolerance, kmax, coarse, min_level, smooth, creases, certify, prune, t, domain, threads, progress))]
-    #[allow(clippy::too_many_arguments)]
+    /// Brick `brick` of the run of `8^bricks` bricks as part-file bytes
+    /// (`isoc mesh --bricks B --brick I`; the arguments as `mesh`'s).
+    #[pyo3(signature = (bricks, brick, options, threads))]
+    fn mesh_part<'py>(
+        &self,
+        py: Python<'py>,
+        bricks: u8,
+        brick: u32,
+        options: Options,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, pyo3::types::PyBytes>> {
+        let opts = bricked_options(&options)?;
+        let b = brick::Brick::new(bricks, brick).ok_or_else(|| {
+            value_error(format!(
+                "brick {brick} of bricks={bricks}: bricks is at most {} and brick below 8^bricks",
+                brick::MAX_BRICK_LEVEL
+            ))
+        })?;
+        let cancel = Cancel::new();
+        let s = &self.surface;
+        let work = || {
+            let (p, info) = brick::mesh_part(s, &opts, b, &cancel)?;
+            let mut bytes = Vec::new();
+            isoc::io::part::write(&p.mesh, &p.origins, &info.to_json(), &mut bytes)
+                .map_err(brick::BrickError::Io)?;
+            Ok::<_, brick::BrickError>(bytes)
+        };
+        let bytes =
+            run_cancellable(py, threads, &cancel, work, |_| Ok(()))?.map_err(brick_error)?;
+        Ok(pyo3::types::PyBytes::new(py, &bytes))
+    }
+
+    /// Meshes the surface (see `isoc.Surface.mesh`); with `bricks`, as
+    /// `--bricks` (welded in memory).
+    #[pyo3(signature = (options, threads, progress, bricks=None))]
     fn mesh(
         &self,
         py: Python<'_>,
-        level: u8,
-        tolerance: Option<f64>,
-        kmax: Option<f64>,
-        coarse: bool,
-        min_level: u8,
-        smooth: usize,
-        creases: bool,
-        certify: bool,
-        prune: bool,
-        t: f64,
-        domain: Option<[f64; 6]>,
+        options: Options,
         threads: Option<usize>,
         progress: Option<Py<PyAny>>,
+        bricks: Option<u8>,
     ) -> PyResult<CoreMesh> {
-        if level > 20 {
-            return Err(value_error(format!("level {level}: at most 20")));
+        if let Some(b) = bricks {
+            let opts = bricked_options(&options)?;
+            return self.mesh_bricked(py, &opts, b, threads, options.certify);
         }
-        if let Some(k) = kmax
-            && !(k.is_finite() && k >= 0.0)
-        {
-            return Err(value_error(format!("kmax {k}: must be a number >= 0")));
-        }
-        if let Some(d) = tolerance
-            && !(d.is_finite() && d > 0.0)
-        {
-            return Err(value_error(format!(
-                "tolerance {d}: must be a positive number (a distance in domain units)"
-            )));
-        }
-        if min_level > level {
-            return Err(value_error(format!(
-                "min_level {min_level} is above level {level}"
-            )));
-        }
-        if !t.is_finite() {
-            return Err(value_error("t must be finite"));
-        }
-        let domain = match domain {
-            None => None,
-            Some(d) => {
-                let b = Bounds {
-                    lo: [d[0], d[2], d[4]],
-                    hi: [d[1], d[3], d[5]],
-                };
-                if (0..3)
-                    .any(|k| !(b.lo[k].is_finite() && b.hi[k].is_finite() && b.lo[k] < b.hi[k]))
-                {
-                    return Err(value_error(format!(
-                        "domain {d:?}: every side must be finite and non-empty (a < b)"
-                    )));
-                }
-                Some(b)
-            }
-        };
+        let opts = mesh_options(&options)?;
+        let Options {
+            tolerance,
+            certify,
+            prune,
+            ..
+        } = options;
         let s = &self.surface;
-        let opts = MeshOptions {
-            octree: OctreeOptions {
-                max_level: level,
-                min_level,
-                kmax: kmax.unwrap_or(OctreeOptions::default().kmax),
-                test: if certify {
-                    TopologyTest::Certify
-                } else {
-                    TopologyTest::Paper
-                },
-                t,
-                prune,
-                // Faithful `level` unless a criterion of the caller's
-                // replaces it (SPEC §2, as `isoc mesh`).
-                chord: OctreeOptions::default()
-                    .chord
-                    .filter(|_| !coarse && kmax.is_none() && tolerance.is_none()),
-            },
-            smooth,
-            domain,
-            creases,
-        };
         let cancel = Cancel::new();
         let last: Mutex<Option<Stage>> = Mutex::new(None);
         let on_stage = |st: Stage| {
@@ -539,6 +621,155 @@ impl CoreSurface {
     }
 }
 
+impl CoreSurface {
+    /// `mesh(..., bricks=B)`: every brick, welded in memory.
+    fn mesh_bricked(
+        &self,
+        py: Python<'_>,
+        opts: &MeshOptions,
+        bricks: u8,
+        threads: Option<usize>,
+        certify: bool,
+    ) -> PyResult<CoreMesh> {
+        let s = &self.surface;
+        let cancel = Cancel::new();
+        let work = || {
+            let mut mesh = isoc::Mesh::default();
+            brick::mesh_bricks(s, s.domain, opts, bricks, &mut mesh, &|_, _| {}, &cancel)
+                .map(|r| (mesh, r))
+        };
+        let (mesh, rep) =
+            run_cancellable(py, threads, &cancel, work, |_| Ok(()))?.map_err(brick_error)?;
+        let mut stats = mesher::report::stats_json(&rep, None, self.compile_ms, certify);
+        stats["bricks"] = bricks.into();
+        Ok(CoreMesh {
+            mesh,
+            stats: stats.to_string(),
+        })
+    }
+}
+
+/// A bricked run's failure as a Python exception.
+fn brick_error(e: brick::BrickError) -> PyErr {
+    match e {
+        brick::BrickError::Cancelled => {
+            pyo3::exceptions::PyKeyboardInterrupt::new_err("isoc: meshing cancelled")
+        }
+        brick::BrickError::Io(e) => PyOSError::new_err(e.to_string()),
+    }
+}
+
+/// Where a [`CoreMerger`] welds to: memory, or a file streamed.
+enum Target {
+    Memory(isoc::Mesh),
+    File(StreamWriter),
+}
+
+impl Sink for Target {
+    fn append(&mut self, part: &isoc::Mesh, new: &[u32], tris: &[[u32; 3]]) -> std::io::Result<()> {
+        match self {
+            Target::Memory(m) => m.append(part, new, tris),
+            Target::File(w) => w.append(part, new, tris),
+        }
+    }
+}
+
+/// Part files welded one by one (wrapped by `isoc.dask`): the parts of
+/// one run, each once, in the order given.
+#[pyclass(module = "isoc._isoc")]
+struct CoreMerger {
+    stitcher: Option<Stitcher<Target>>,
+    /// The first part's run: `(bricks, run, certify)`.
+    run: Option<(u8, String, bool)>,
+    seen: std::collections::HashSet<u32>,
+    reports: Vec<mesher::MeshReport>,
+    start: Instant,
+}
+
+#[pymethods]
+impl CoreMerger {
+    /// A merger into memory, or streamed into `path` (format by its
+    /// extension; `unit` for 3MF).
+    #[new]
+    #[pyo3(signature = (path=None, unit="millimeter"))]
+    fn new(path: Option<std::path::PathBuf>, unit: &str) -> PyResult<Self> {
+        let unit: isoc::io::threemf::Unit = unit.parse().map_err(value_error)?;
+        let target = match path {
+            None => Target::Memory(isoc::Mesh::default()),
+            Some(p) => Target::File(StreamWriter::create(&p, unit).map_err(write_error)?),
+        };
+        Ok(CoreMerger {
+            stitcher: Some(Stitcher::new(target)),
+            run: None,
+            seen: Default::default(),
+            reports: Vec::new(),
+            start: Instant::now(),
+        })
+    }
+
+    /// Welds one part file's bytes; returns its brick index.
+    fn add(&mut self, py: Python<'_>, part: &[u8]) -> PyResult<u32> {
+        let (mesh, origins, info) = py
+            .detach(|| isoc::io::part::read(part))
+            .map_err(|e| value_error(e.to_string()))?;
+        let info = PartInfo::from_json(&info)
+            .map_err(|e| value_error(format!("not an isoc part: {e}")))?;
+        let run = (info.bricks, info.run.clone(), info.certify);
+        if self.run.get_or_insert_with(|| run.clone()) != &run {
+            return Err(value_error(
+                "parts of different runs (other surface, options or bricks)",
+            ));
+        }
+        if !self.seen.insert(info.brick) {
+            return Err(value_error(format!("brick {} given twice", info.brick)));
+        }
+        let st = self
+            .stitcher
+            .as_mut()
+            .ok_or_else(|| value_error("the merger is finished"))?;
+        py.detach(|| st.add(&mesh, &origins))
+            .map_err(|e| PyOSError::new_err(e.to_string()))?;
+        self.reports.push(info.report);
+        Ok(info.brick)
+    }
+
+    /// Finishes: `(mesh or None when streamed to a file, stats JSON)`.
+    fn finish(&mut self, py: Python<'_>) -> PyResult<(Option<CoreMesh>, String)> {
+        let st = self
+            .stitcher
+            .take()
+            .ok_or_else(|| value_error("the merger is finished"))?;
+        let (welded, target) = st.finish();
+        let mesh = match target {
+            Target::Memory(m) => Some(m),
+            Target::File(w) => {
+                py.detach(|| w.finish()).map_err(write_error)?;
+                None
+            }
+        };
+        let ms = self.start.elapsed().as_secs_f64() * 1e3;
+        let rep = brick::merge_reports(&self.reports, &welded, ms);
+        let (bricks, _, certify) = self.run.clone().unwrap_or_default();
+        let mut stats = mesher::report::stats_json(&rep, None, 0.0, certify);
+        stats["bricks"] = bricks.into();
+        stats["parts"] = self.reports.len().into();
+        let stats = stats.to_string();
+        let mesh = mesh.map(|mesh| CoreMesh {
+            mesh,
+            stats: stats.clone(),
+        });
+        Ok((mesh, stats))
+    }
+}
+
+/// A write failure as a Python exception.
+fn write_error(e: isoc::io::WriteError) -> PyErr {
+    match e {
+        isoc::io::WriteError::UnknownFormat(_) => value_error(e.to_string()),
+        isoc::io::WriteError::Io { .. } => PyOSError::new_err(e.to_string()),
+    }
+}
+
 /// A mesh (wrapped by `isoc.Mesh`).
 #[pyclass(module = "isoc._isoc", frozen)]
 struct CoreMesh {
@@ -575,10 +806,7 @@ impl CoreMesh {
     fn save(&self, py: Python<'_>, path: std::path::PathBuf, unit: &str) -> PyResult<()> {
         let unit: isoc::io::threemf::Unit = unit.parse().map_err(value_error)?;
         py.detach(|| isoc::io::write_file_in(&self.mesh, &path, unit))
-            .map_err(|e| match e {
-                isoc::io::WriteError::UnknownFormat(_) => value_error(e.to_string()),
-                isoc::io::WriteError::Io { .. } => PyOSError::new_err(e.to_string()),
-            })
+            .map_err(write_error)
     }
 }
 
@@ -726,5 +954,6 @@ fn _isoc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<CoreSurface>()?;
     m.add_class::<CoreMesh>()?;
     m.add_class::<CoreAnimation>()?;
+    m.add_class::<CoreMerger>()?;
     Ok(())
 }

@@ -3,6 +3,7 @@
 //! return the process exit status; only `main` touches the real process.
 
 mod animate;
+mod bricks;
 mod error;
 
 use std::io::Write;
@@ -70,6 +71,21 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Weld part files (`mesh --bricks B --brick I`) into one mesh.
+    Merge {
+        /// The parts, in any order.
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Output file: .ply, .obj, .stl, .glb or .3mf.
+        #[arg(short = 'o', long = "output", required = true)]
+        output: PathBuf,
+        /// Unit of a .3mf output (as `mesh --unit`).
+        #[arg(long, default_value = "millimeter")]
+        unit: String,
+        /// Print statistics on stdout: `--stats json`.
+        #[arg(long, value_enum)]
+        stats: Option<StatsFormat>,
+    },
     /// Track a surface in `t` with twinned meshes, frame by frame.
     Animate {
         #[command(flatten)]
@@ -132,6 +148,14 @@ pub struct MeshArgs {
     /// Print statistics on stdout: `--stats json`.
     #[arg(long, value_enum)]
     pub stats: Option<StatsFormat>,
+    /// Mesh the domain as 8^B bricks, in parallel, streamed to the output
+    /// with bounded memory; the same mesh as without bricks.
+    #[arg(long, value_name = "B", value_parser = clap::value_parser!(u8).range(0..=6))]
+    pub bricks: Option<u8>,
+    /// Mesh only brick I of the 8^B (0 ≤ I < 8^B) into a part file (.ply)
+    /// for `isoc merge`.
+    #[arg(long, value_name = "I", requires = "bricks")]
+    pub brick: Option<u32>,
 }
 
 /// Formats of `--stats`.
@@ -163,6 +187,12 @@ pub fn run(cli: Cli, out: &mut dyn Write, err: &mut dyn Write) -> i32 {
             t,
             json,
         } => eval(&source, &coords, bbox.as_deref(), t, json, out),
+        Command::Merge {
+            parts,
+            output,
+            unit,
+            stats,
+        } => bricks::merge(&parts, &output, &unit, stats, out, err),
         Command::Animate { source, animate } => animate::run(&source, &animate, out, err),
     };
     match result {
@@ -433,9 +463,10 @@ fn mesh_command(
         Some(p) => p.clone(),
         None => args.file.with_extension("ply"),
     };
-    // Fail on a bad extension or unit before doing any work.
+    // Fail on a bad extension, unit or brick before doing any work.
     isoc::io::Format::from_path(&output)?;
     let unit: isoc::io::threemf::Unit = m.unit.parse().map_err(Error::Usage)?;
+    bricks::check(m, &output)?;
 
     let t0 = std::time::Instant::now();
     let surface = compile_file(args)?;
@@ -487,22 +518,54 @@ fn mesh_command(
             Stage::Smooth => "smoothing".to_string(),
         })
     };
-    let (mesh, report, tol) = match m.tolerance {
-        Some(d) => {
+    let (report, tol) = match (m.bricks, m.brick, m.tolerance) {
+        (Some(b), Some(i), _) => (bricks::mesh_part(&surface, &opts, b, i, &output)?, None),
+        (Some(b), None, _) => (
+            bricks::mesh_bricked(&surface, &opts, b, &output, unit, &bar)?,
+            None,
+        ),
+        (None, _, Some(d)) => {
             let (mesh, report, tol) =
                 mesher::mesh_to_tolerance(&surface, surface.domain, &opts, d, &progress);
-            (mesh, report, Some(tol))
+            bar.finish_and_clear();
+            isoc::io::write_file_in(&mesh, &output, unit)?;
+            (report, Some(tol))
         }
-        None => {
+        (None, _, None) => {
             let (mesh, report) = mesher::mesh(&surface, &opts, &progress);
-            (mesh, report, None)
+            bar.finish_and_clear();
+            isoc::io::write_file_in(&mesh, &output, unit)?;
+            (report, None)
         }
     };
     bar.finish_and_clear();
-    isoc::io::write_file_in(&mesh, &output, unit)?;
+    let _ = err.write_all(summary(&output, &report).as_bytes());
+    if let Some(t) = &tol {
+        let _ = err.write_all(
+            format!(
+                "tolerance {}: max deviation {:e} ({}), k_max {} after {} pass(es)\n",
+                t.tolerance,
+                t.max_deviation,
+                if t.met { "met" } else { "NOT met" },
+                t.kmax,
+                t.passes
+            )
+            .as_bytes(),
+        );
+    }
+    if m.stats == Some(StatsFormat::Json) {
+        let mut j = mesher::report::stats_json(&report, tol.as_ref(), compile_ms, m.certify);
+        if let Some(b) = m.bricks {
+            j["bricks"] = json!(b);
+        }
+        print_stats(j, out)?;
+    }
+    Ok(())
+}
 
-    let r = &report;
-    let summary = format!(
+/// The summary line on stderr after a mesh is written.
+fn summary(output: &std::path::Path, r: &isoc::mesher::MeshReport) -> String {
+    format!(
         "{}: {} triangles, {} vertices, {} component(s), euler {}, {}, {}, {}\n",
         output.display(),
         r.triangles,
@@ -524,24 +587,22 @@ fn mesh_command(
         } else {
             format!("{} ambiguous cell(s)", r.ambiguous_cells)
         }
-    );
-    let _ = err.write_all(summary.as_bytes());
-    if let Some(t) = &tol {
-        let _ = err.write_all(
-            format!(
-                "tolerance {}: max deviation {:e} ({}), k_max {} after {} pass(es)\n",
-                t.tolerance,
-                t.max_deviation,
-                if t.met { "met" } else { "NOT met" },
-                t.kmax,
-                t.passes
-            )
-            .as_bytes(),
-        );
+    )
+}
+
+/// Prints `--stats json`'s object, with the process's peak resident
+/// memory (`peak_rss_bytes`, where the system tells it).
+fn print_stats(mut j: Json, out: &mut dyn Write) -> Result<(), Error> {
+    if let Some(bytes) = peak_rss_bytes() {
+        j["peak_rss_bytes"] = json!(bytes);
     }
-    if m.stats == Some(StatsFormat::Json) {
-        let j = mesher::report::stats_json(r, tol.as_ref(), compile_ms, m.certify);
-        write(out, &(j.to_string() + "\n"))?;
-    }
-    Ok(())
+    write(out, &(j.to_string() + "\n"))
+}
+
+/// The process's peak resident set (Linux: `VmHWM` in /proc/self/status).
+fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }

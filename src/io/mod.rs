@@ -6,8 +6,10 @@
 
 pub mod glb;
 pub mod obj;
+pub mod part;
 pub mod ply;
 pub mod stl;
+pub mod stream;
 pub mod threemf;
 
 use std::io::Write;
@@ -109,26 +111,40 @@ pub fn write_atomic(
     path: &Path,
     fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), WriteError> {
-    let io = |error| WriteError::Io {
-        path: path.to_path_buf(),
-        error,
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        let file = std::fs::File::create(&tmp)?;
+    atomic_file(path, |file| {
         let mut w = std::io::BufWriter::new(file);
         fill(&mut w)?;
-        w.flush()?;
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        w.flush()
+    })
+}
+
+/// [`write_atomic`] with the temporary file itself (seekable, unbuffered).
+pub(crate) fn atomic_file(
+    path: &Path,
+    fill: impl FnOnce(&mut std::fs::File) -> std::io::Result<()>,
+) -> Result<(), WriteError> {
+    let tmp = sibling(path, "tmp");
+    let result = (|| {
+        let mut file = std::fs::File::create(&tmp)?;
+        fill(&mut file)?;
+        file.sync_all()?;
         std::fs::rename(&tmp, path)
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
-    result.map_err(io)
+    result.map_err(|error| WriteError::Io {
+        path: path.to_path_buf(),
+        error,
+    })
+}
+
+/// A hidden file beside `path`, named for it, this process and `tag`.
+pub(crate) fn sibling(path: &Path, tag: &str) -> std::path::PathBuf {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    dir.join(format!(".{name}.{}.{tag}", std::process::id()))
 }

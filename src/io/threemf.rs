@@ -112,7 +112,28 @@ pub fn write(mesh: &Mesh, out: &mut dyn Write) -> std::io::Result<()> {
 pub fn write_objects(meshes: &[&Mesh], unit: Unit, out: &mut dyn Write) -> std::io::Result<()> {
     // The zip writer seeks back to patch each entry's header, so the
     // package is assembled in memory (compressed) and copied to `out`.
-    let mut zip = zip::ZipWriter::new(Cursor::new(Vec::new()));
+    // Vertices take about 70 bytes of XML, triangles 50: past 4 GiB the
+    // model part needs zip64 sizes.
+    let xml: usize = meshes
+        .iter()
+        .map(|m| 70 * m.positions.len() + 50 * m.triangles.len())
+        .sum();
+    let large = xml as u64 > u64::from(u32::MAX) / 2;
+    let bytes = package(Cursor::new(Vec::new()), large, |w| {
+        model_xml(meshes, unit, w)
+    })?
+    .into_inner();
+    out.write_all(&bytes)
+}
+
+/// Writes the package into `sink`, the model part's XML by `model`
+/// (`large`: it may pass 4 GiB, and needs zip64 sizes).
+pub(crate) fn package<W: Write + std::io::Seek>(
+    sink: W,
+    large: bool,
+    model: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> std::io::Result<W> {
+    let mut zip = zip::ZipWriter::new(sink);
     let deflated = zip::write::SimpleFileOptions::default()
         .compression_method(zip::CompressionMethod::Deflated);
     let zerr = |e: zip::result::ZipError| std::io::Error::other(e.to_string());
@@ -121,18 +142,40 @@ pub fn write_objects(meshes: &[&Mesh], unit: Unit, out: &mut dyn Write) -> std::
     zip.write_all(CONTENT_TYPES.as_bytes())?;
     zip.start_file("_rels/.rels", deflated).map_err(zerr)?;
     zip.write_all(RELS.as_bytes())?;
-    zip.start_file(MODEL_PART, deflated).map_err(zerr)?;
+    zip.start_file(MODEL_PART, deflated.large_file(large))
+        .map_err(zerr)?;
     {
         let mut w = std::io::BufWriter::with_capacity(1 << 16, &mut zip);
-        model_xml(meshes, unit, &mut w)?;
+        model(&mut w)?;
         w.flush()?;
     }
-    let bytes = zip.finish().map_err(zerr)?.into_inner();
-    out.write_all(&bytes)
+    zip.finish().map_err(zerr)
 }
 
 /// The model part's XML.
 fn model_xml(meshes: &[&Mesh], unit: Unit, w: &mut dyn Write) -> std::io::Result<()> {
+    model_start(unit, w)?;
+    let meshes: Vec<&Mesh> = meshes
+        .iter()
+        .copied()
+        .filter(|m| !m.triangles.is_empty())
+        .collect();
+    for (k, mesh) in meshes.iter().enumerate() {
+        object_start(k + 1, w)?;
+        for p in &mesh.positions {
+            vertex(*p, w)?;
+        }
+        vertices_end(w)?;
+        for t in &mesh.triangles {
+            triangle(*t, w)?;
+        }
+        object_end(w)?;
+    }
+    model_end(meshes.len(), w)
+}
+
+/// The model's opening, up to its resources.
+pub(crate) fn model_start(unit: Unit, w: &mut dyn Write) -> std::io::Result<()> {
     writeln!(w, r#"<?xml version="1.0" encoding="UTF-8"?>"#)?;
     writeln!(
         w,
@@ -140,31 +183,43 @@ fn model_xml(meshes: &[&Mesh], unit: Unit, w: &mut dyn Write) -> std::io::Result
         unit.name()
     )?;
     writeln!(w, r#" <metadata name="Application">isoc</metadata>"#)?;
-    writeln!(w, " <resources>")?;
-    let meshes: Vec<&Mesh> = meshes
-        .iter()
-        .copied()
-        .filter(|m| !m.triangles.is_empty())
-        .collect();
-    for (k, mesh) in meshes.iter().enumerate() {
-        writeln!(w, r#"  <object id="{}" type="model">"#, k + 1)?;
-        writeln!(w, "   <mesh>\n    <vertices>")?;
-        for p in &mesh.positions {
-            // `{}` on f64 is the shortest form that reads back exactly.
-            writeln!(w, r#"     <vertex x="{}" y="{}" z="{}"/>"#, p.x, p.y, p.z)?;
-        }
-        writeln!(w, "    </vertices>\n    <triangles>")?;
-        for t in &mesh.triangles {
-            writeln!(
-                w,
-                r#"     <triangle v1="{}" v2="{}" v3="{}"/>"#,
-                t[0], t[1], t[2]
-            )?;
-        }
-        writeln!(w, "    </triangles>\n   </mesh>\n  </object>")?;
-    }
+    writeln!(w, " <resources>")
+}
+
+/// An object's opening, up to its first vertex.
+pub(crate) fn object_start(id: usize, w: &mut dyn Write) -> std::io::Result<()> {
+    writeln!(w, r#"  <object id="{id}" type="model">"#)?;
+    writeln!(w, "   <mesh>\n    <vertices>")
+}
+
+/// One vertex (`{}` on f64 is the shortest form that reads back exactly).
+pub(crate) fn vertex(p: glam::DVec3, w: &mut dyn Write) -> std::io::Result<()> {
+    writeln!(w, r#"     <vertex x="{}" y="{}" z="{}"/>"#, p.x, p.y, p.z)
+}
+
+/// Between an object's vertices and its triangles.
+pub(crate) fn vertices_end(w: &mut dyn Write) -> std::io::Result<()> {
+    writeln!(w, "    </vertices>\n    <triangles>")
+}
+
+/// One triangle.
+pub(crate) fn triangle(t: [u32; 3], w: &mut dyn Write) -> std::io::Result<()> {
+    writeln!(
+        w,
+        r#"     <triangle v1="{}" v2="{}" v3="{}"/>"#,
+        t[0], t[1], t[2]
+    )
+}
+
+/// An object's closing.
+pub(crate) fn object_end(w: &mut dyn Write) -> std::io::Result<()> {
+    writeln!(w, "    </triangles>\n   </mesh>\n  </object>")
+}
+
+/// The model's closing: the build, one item per object `1..=objects`.
+pub(crate) fn model_end(objects: usize, w: &mut dyn Write) -> std::io::Result<()> {
     writeln!(w, " </resources>\n <build>")?;
-    for k in 0..meshes.len() {
+    for k in 0..objects {
         writeln!(w, r#"  <item objectid="{}"/>"#, k + 1)?;
     }
     writeln!(w, " </build>\n</model>")

@@ -14,6 +14,7 @@ pub mod deviation;
 pub(crate) mod dynmesh;
 pub mod origin;
 pub mod quality;
+pub mod sink;
 pub mod topology;
 
 use glam::DVec3;

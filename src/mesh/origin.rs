@@ -79,6 +79,8 @@ pub const SPLIT: u64 = 3;
 /// Tag of a crease feature point's id (inside one brick: named by the
 /// brick and its number there).
 pub const CREASE: u64 = 4;
+/// Tag of a run's fingerprint (not a vertex: `crate::mesher::brick::run_id`).
+pub const RUN: u64 = 5;
 
 /// A 128-bit mix of a tag and two 128-bit parts: two 64-bit lanes, each a
 /// chain of the `splitmix64` finaliser over the parts' words with its own

@@ -28,10 +28,14 @@ pub fn aspect_good(mesh: &Mesh) -> f64 {
     if mesh.triangles.is_empty() {
         return 0.0;
     }
-    let good = mesh
-        .triangles
+    good_triangles(mesh) as f64 / mesh.triangles.len() as f64
+}
+
+/// How many triangles have aspect ratio > 0.8 (the numerator of
+/// [`aspect_good`]).
+pub fn good_triangles(mesh: &Mesh) -> usize {
+    mesh.triangles
         .iter()
         .filter(|&&t| aspect_ratio(mesh, t) > 0.8)
-        .count();
-    good as f64 / mesh.triangles.len() as f64
+        .count()
 }

@@ -23,7 +23,7 @@ use super::{Mesh, Star};
 use crate::geometry::Bounds;
 
 /// What [`analyze`] finds.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Topology {
     /// Vertices used by at least one triangle (`V`).
     pub vertices: usize,
@@ -68,10 +68,11 @@ impl Topology {
     }
 }
 
-struct UnionFind(Vec<u32>);
+/// Disjoint sets over `0..n` (path halving; the lower root wins).
+pub(crate) struct UnionFind(pub(crate) Vec<u32>);
 
 impl UnionFind {
-    fn find(&mut self, mut i: u32) -> u32 {
+    pub(crate) fn find(&mut self, mut i: u32) -> u32 {
         while self.0[i as usize] != i {
             let p = self.0[self.0[i as usize] as usize];
             self.0[i as usize] = p;
@@ -79,12 +80,25 @@ impl UnionFind {
         }
         i
     }
-    fn union(&mut self, a: u32, b: u32) {
+    pub(crate) fn union(&mut self, a: u32, b: u32) {
         let (a, b) = (self.find(a), self.find(b));
         if a != b {
             self.0[a.max(b) as usize] = a.min(b);
         }
     }
+}
+
+/// A component's `V`, `E`, `F` and whether it is closed.
+pub(crate) type Component = (i64, i64, i64, bool);
+
+/// The genus of each component, largest (most triangles) first: `None`
+/// for one that is not closed.
+pub(crate) fn genera(mut comps: Vec<Component>) -> Vec<Option<i64>> {
+    comps.sort_by_key(|c| std::cmp::Reverse(c.2));
+    comps
+        .iter()
+        .map(|&(v, e, f, closed)| closed.then(|| (2 - (v - e + f)) / 2))
+        .collect()
 }
 
 /// Analyses `mesh`, with no domain: every boundary edge is open.
@@ -104,27 +118,48 @@ fn on_domain_face(a: DVec3, b: DVec3, domain: &Bounds) -> bool {
     })
 }
 
-/// Analyses `mesh`; boundary edges on a face of `domain` are not open (see
-/// the module doc).
-pub fn analyze_in(mesh: &Mesh, domain: Option<&Bounds>) -> Topology {
+/// A mesh's edges and what they connect.
+pub(crate) struct Edges {
+    /// Per vertex, whether a triangle uses it.
+    pub used: Vec<bool>,
+    /// Vertices joined by edges: the connected components.
+    pub uf: UnionFind,
+    /// Every directed edge as `(min, max, backwards)` packed in a `u64`
+    /// (`min << 33 | max << 1 | backwards`), sorted: the uses of each
+    /// undirected edge are one run.
+    pub directed: Vec<u64>,
+}
+
+/// The edges of `mesh` ([`Edges`]).
+pub(crate) fn edges(mesh: &Mesh) -> Edges {
     let n = mesh.positions.len();
     let mut used = vec![false; n];
     let mut uf = UnionFind((0..n as u32).collect());
-    // Every directed edge as `(min, max, backwards)` packed in order, so
-    // sorting groups the uses of each undirected edge.
     let mut directed: Vec<u64> = Vec::with_capacity(3 * mesh.triangles.len());
     for t in &mesh.triangles {
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
             used[a as usize] = true;
-            let (lo, hi) = (a.min(b) as u64, a.max(b) as u64);
-            directed.push((lo << 33) | (hi << 1) | (a > b) as u64);
+            let (lo, hi) = (u64::from(a.min(b)), u64::from(a.max(b)));
+            directed.push((lo << 33) | (hi << 1) | u64::from(a > b));
             uf.union(a, b);
         }
     }
     directed.sort_unstable();
+    Edges { used, uf, directed }
+}
+
+/// Analyses `mesh`; boundary edges on a face of `domain` are not open (see
+/// the module doc).
+pub fn analyze_in(mesh: &Mesh, domain: Option<&Bounds>) -> Topology {
+    let n = mesh.positions.len();
+    let Edges {
+        used,
+        mut uf,
+        directed,
+    } = edges(mesh);
     // Per component: V, E, F and closedness.
-    let mut comp: HashMap<u32, (i64, i64, i64, bool)> = HashMap::new();
+    let mut comp: HashMap<u32, Component> = HashMap::new();
     for i in 0..n as u32 {
         if used[i as usize] {
             let r = uf.find(i);
@@ -170,19 +205,16 @@ pub fn analyze_in(mesh: &Mesh, domain: Option<&Bounds>) -> Topology {
     drop(directed);
     let nonmanifold_vertices = count_bowties(mesh, &used);
     let v = used.iter().filter(|u| **u).count();
-    let mut comps: Vec<(i64, i64, i64, bool)> = comp.into_values().collect();
-    comps.sort_by_key(|c| std::cmp::Reverse(c.2));
-    let genus = comps
-        .iter()
-        .map(|&(v, e, f, closed)| closed.then(|| (2 - (v - e + f)) / 2))
-        .collect();
+    let comps: Vec<Component> = comp.into_values().collect();
+    let components = comps.len();
+    let genus = genera(comps);
     let watertight =
         boundary == 0 && nonmanifold == 0 && misoriented == 0 && nonmanifold_vertices == 0;
     Topology {
         vertices: v,
         edges,
         faces: mesh.triangles.len(),
-        components: comps.len(),
+        components,
         euler: v as i64 - edges as i64 + mesh.triangles.len() as i64,
         genus,
         boundary_edges: boundary,
@@ -219,7 +251,7 @@ pub fn triangle_components(mesh: &Mesh) -> Vec<u32> {
 
 /// Vertices whose incident triangles do not form a single fan (connected
 /// through shared edges around the vertex).
-fn count_bowties(mesh: &Mesh, used: &[bool]) -> usize {
+pub(crate) fn count_bowties(mesh: &Mesh, used: &[bool]) -> usize {
     let star = Star::new(mesh);
     let mut bad = 0;
     let (mut fan, mut by_nb, mut uf) = (Vec::new(), Vec::new(), UnionFind(Vec::new()));

@@ -11,7 +11,7 @@
 //! nodes are the whole tree's, with the same fates and programs), and
 //! polygonises its own dual cells with the whole run's rules; its
 //! vertices carry [`Origins`], ids that depend on the structure that made
-//! them. Then:
+//! them, by which [`super::stitch`] welds the parts. Then:
 //!
 //! - **with `smooth = 0` and no creases, the union of the parts is the
 //!   whole run's mesh**: the same triangles over the same positions, bit
@@ -38,17 +38,21 @@
 
 use std::time::Instant;
 
+use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 
+use super::stitch::{Stitched, Stitcher};
 use super::{MeshOptions, MeshReport, Stage, Timings, chord, crease, ms, smooth, weld};
 use crate::cancel::{Cancel, Cancelled};
 use crate::dual;
 use crate::eval::Evaluator;
 use crate::geometry::Bounds;
 use crate::mesh::origin::{self, Origins};
-use crate::mesh::{Mesh, quality, topology};
-use crate::octree::{Leaf, MAX_LEVEL, Node, Octree, OctreeStats, Region};
+use crate::mesh::sink::Sink;
+use crate::mesh::{Mesh, topology};
+use crate::octree::{Leaf, MAX_LEVEL, Node, Octree, OctreeStats, Region, TopologyTest};
 use crate::polygonize::extract;
+use crate::surface::Surface;
 
 /// Deepest brick level: `8^6` bricks.
 pub const MAX_BRICK_LEVEL: u8 = 6;
@@ -239,6 +243,67 @@ pub fn mesh_brick<E: Evaluator + ?Sized>(
     })
 }
 
+/// What a part file says of itself ([`crate::io::part`]'s info line): which
+/// brick of which run, and the brick's report.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PartInfo {
+    /// The brick level `B` of the run.
+    pub bricks: u8,
+    /// The brick's index ([`Brick::index`]).
+    pub brick: u32,
+    /// The run ([`run_id`]): parts of different runs do not weld.
+    pub run: String,
+    /// Whether the run's topology test was the stricter one (`--certify`).
+    #[serde(default)]
+    pub certify: bool,
+    /// The brick's report ([`Part::report`]).
+    pub report: MeshReport,
+}
+
+/// A fingerprint of a bricked run: of the surface's program text, the
+/// domain and the options (their `Debug` forms), so that parts of one run
+/// are told from parts of another.
+pub fn run_id(program: &str, domain: &Bounds, opts: &MeshOptions) -> String {
+    let text = format!("{program}|{domain:?}|{opts:?}");
+    let id = text.as_bytes().chunks(16).fold(0u128, |h, c| {
+        let mut w = [0u8; 16];
+        w[..c.len()].copy_from_slice(c);
+        origin::mix(origin::RUN, h, u128::from_le_bytes(w))
+    });
+    format!("{id:032x}")
+}
+
+impl PartInfo {
+    /// The info line of a part file (one line of JSON).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("a part's info is plain data")
+    }
+
+    /// Reads an info line back.
+    pub fn from_json(text: &str) -> Result<PartInfo, String> {
+        serde_json::from_str(text).map_err(|e| e.to_string())
+    }
+}
+
+/// Brick `brick` of `surface`'s bricked run, with its [`PartInfo`] (what
+/// a part file carries; [`crate::io::part`]).
+pub fn mesh_part(
+    surface: &Surface,
+    opts: &MeshOptions,
+    brick: Brick,
+    cancel: &Cancel,
+) -> Result<(Part, PartInfo), Cancelled> {
+    let part = mesh_brick(surface, surface.domain, opts, brick, &|_| {}, cancel)?;
+    let info = PartInfo {
+        bricks: brick.level,
+        brick: brick.index(),
+        run: run_id(&surface.program.to_string(), &surface.domain, opts),
+        certify: opts.octree.test == TopologyTest::Certify,
+        report: part.report.clone(),
+    };
+    Ok((part, info))
+}
+
 /// Per vertex, whether it is on a seam: an end of an edge with one
 /// triangle in the part that does not lie on ∂Ω.
 pub fn seam(mesh: &Mesh, origins: &Origins) -> Vec<bool> {
@@ -288,68 +353,99 @@ fn owned_stats(tree: &Octree, brick: Brick) -> OctreeStats {
     s
 }
 
-/// Parts welded into one mesh: vertices with equal ids become one (the
-/// first part's position and flags), the others are appended in order.
-#[derive(Default)]
-pub struct Merger {
-    mesh: Mesh,
-    origins: Origins,
-    index: HashMap<origin::VertexId, u32>,
+/// Why [`mesh_bricks`] stopped.
+#[derive(Debug)]
+pub enum BrickError {
+    /// The run was cancelled.
+    Cancelled,
+    /// The sink refused a part.
+    Io(std::io::Error),
 }
 
-impl Merger {
-    /// Adds a part's triangles, welding its vertices to those already in.
-    pub fn add(&mut self, part: &Part) {
-        let (m, o) = (&part.mesh, &part.origins);
-        let map: Vec<u32> = (0..m.positions.len())
-            .map(|v| {
-                let next = self.mesh.positions.len() as u32;
-                let at = *self.index.entry(o.ids[v]).or_insert(next);
-                if at == next {
-                    self.mesh.positions.push(m.positions[v]);
-                    self.mesh.normals.push(m.normals[v]);
-                    self.mesh.ambiguous.push(m.ambiguous[v]);
-                    self.origins.ids.push(o.ids[v]);
-                    self.origins.sides.push(o.sides[v]);
-                }
-                at
+impl From<Cancelled> for BrickError {
+    fn from(_: Cancelled) -> Self {
+        BrickError::Cancelled
+    }
+}
+
+impl From<std::io::Error> for BrickError {
+    fn from(e: std::io::Error) -> Self {
+        BrickError::Io(e)
+    }
+}
+
+impl std::fmt::Display for BrickError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            BrickError::Cancelled => write!(f, "cancelled"),
+            BrickError::Io(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for BrickError {}
+
+/// Meshes all `8^level` bricks of `f(·, opts.octree.t) = 0` over
+/// `opts.domain` or `domain` and welds them into `sink` as they finish
+/// ([`Stitcher`]): `2 ×` rayon's threads at a time, added in brick order,
+/// so the output does not depend on the thread count and memory holds one
+/// batch of parts. `done(k, n)` is told after each batch (`k` of `n`
+/// bricks done). The report is [`merge_reports`]'s.
+pub fn mesh_bricks<E: Evaluator + ?Sized, S: Sink>(
+    f: &E,
+    domain: Bounds,
+    opts: &MeshOptions,
+    level: u8,
+    sink: S,
+    done: &(dyn Fn(u32, u32) + Sync),
+    cancel: &Cancel,
+) -> Result<MeshReport, BrickError> {
+    let start = Instant::now();
+    let count = Brick::count(level);
+    let batch = 2 * rayon::current_num_threads() as u32;
+    let mut stitcher = Stitcher::new(sink);
+    let mut reports = Vec::with_capacity(count as usize);
+    for first in (0..count).step_by(batch as usize) {
+        let parts = (first..(first + batch).min(count))
+            .into_par_iter()
+            .map(|i| {
+                let brick = Brick::new(level, i).expect("a brick index below the count");
+                mesh_brick(f, domain, opts, brick, &|_| {}, cancel)
             })
-            .collect();
-        let tris = m.triangles.iter().map(|t| t.map(|v| map[v as usize]));
-        self.mesh.triangles.extend(tris);
+            .collect::<Result<Vec<Part>, Cancelled>>()?;
+        for p in parts {
+            stitcher.add(&p.mesh, &p.origins)?;
+            reports.push(p.report);
+        }
+        done((first + batch).min(count), count);
     }
-
-    /// The welded mesh and its vertices' origins.
-    pub fn finish(self) -> (Mesh, Origins) {
-        (self.mesh, self.origins)
-    }
+    let (welded, _) = stitcher.finish();
+    Ok(merge_reports(&reports, &welded, ms(start)))
 }
 
-/// Welds `parts` into one mesh ([`Merger`]).
-pub fn merge<'a>(parts: impl IntoIterator<Item = &'a Part>) -> (Mesh, Origins) {
-    let mut m = Merger::default();
+/// Welds `parts` into one mesh in memory ([`Stitcher`] into a [`Mesh`]).
+pub fn merge<'a>(parts: impl IntoIterator<Item = &'a Part>) -> (Mesh, Stitched) {
+    let mut mesh = Mesh::default();
+    let mut st = Stitcher::new(&mut mesh);
     for p in parts {
-        m.add(p);
+        st.add(&p.mesh, &p.origins)
+            .expect("a mesh in memory takes every part");
     }
-    m.finish()
+    let (stitched, _) = st.finish();
+    (mesh, stitched)
 }
 
-/// The whole run's report from the parts' reports and the welded mesh
-/// (`domain`: the run's, for the boundary edges of the topology): counts
-/// summed, the deepest level the deepest, the topology and quality
-/// measured on `mesh`, `total` the wall time given.
-pub fn merge_reports(
-    parts: &[MeshReport],
-    mesh: &Mesh,
-    domain: &Bounds,
-    total_ms: f64,
-) -> MeshReport {
+/// The whole run's report from the parts' reports and the welded mesh's
+/// figures ([`Stitcher::finish`]): counts summed, the deepest level the
+/// deepest, the topology and quality the welded mesh's, `total` the wall
+/// time given.
+pub fn merge_reports(parts: &[MeshReport], welded: &Stitched, total_ms: f64) -> MeshReport {
     let mut octree = OctreeStats::default();
     let mut r = MeshReport {
-        triangles: mesh.triangles.len(),
-        vertices: mesh.positions.len(),
-        aspect_good: quality::aspect_good(mesh),
-        topology: topology::analyze_in(mesh, Some(domain)),
+        triangles: welded.triangles,
+        vertices: welded.vertices,
+        aspect_good: welded.aspect_good(),
+        topology: welded.topology.clone(),
         ambiguous_cells: 0,
         guaranteed: true,
         octree,

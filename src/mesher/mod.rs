@@ -21,6 +21,7 @@ pub mod crease;
 pub mod flip;
 pub mod report;
 pub mod smooth;
+pub mod stitch;
 pub mod weld;
 
 use crate::cancel::{Cancel, Cancelled};
@@ -91,7 +92,7 @@ impl Default for MeshOptions {
 }
 
 /// Milliseconds spent per stage.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Timings {
     /// Milliseconds in the octree stage.
     pub octree: f64,
@@ -109,7 +110,7 @@ pub struct Timings {
 }
 
 /// What a mesh run found (the fields of SPEC §2 `--stats json`).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MeshReport {
     /// Triangles of the mesh.
     pub triangles: usize,

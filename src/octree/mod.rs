@@ -299,7 +299,7 @@ fn chord_test<E: Evaluator + ?Sized>(
 }
 
 /// Counts gathered while building.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct OctreeStats {
     /// Number of octree nodes built, leaves included.
     pub nodes: usize,

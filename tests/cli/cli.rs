@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
-fn isoc(args: &[&str]) -> Output {
+pub(crate) fn isoc(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_isoc"))
         .args(args)
         .output()
@@ -12,7 +12,7 @@ fn isoc(args: &[&str]) -> Output {
 }
 
 /// A fresh temporary file holding `text`.
-fn temp_file(name: &str, text: &[u8]) -> PathBuf {
+pub(crate) fn temp_file(name: &str, text: &[u8]) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("isoc-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let p = dir.join(name);
@@ -20,11 +20,11 @@ fn temp_file(name: &str, text: &[u8]) -> PathBuf {
     p
 }
 
-fn stdout(o: &Output) -> String {
+pub(crate) fn stdout(o: &Output) -> String {
     String::from_utf8(o.stdout.clone()).unwrap()
 }
 
-fn stderr(o: &Output) -> String {
+pub(crate) fn stderr(o: &Output) -> String {
     String::from_utf8(o.stderr.clone()).unwrap()
 }
 

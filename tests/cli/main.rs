@@ -8,6 +8,7 @@
 #[path = "../support/mod.rs"]
 mod support;
 
+mod bricks;
 mod cli;
 mod io;
 mod layout;
