@@ -32,7 +32,7 @@
 
 use glam::DVec3;
 
-use crate::octree::{MAX_LEVEL, Node, Octant, Octree};
+use crate::octree::{Leaf, MAX_LEVEL, Node, Octant, Octree};
 
 /// A dual-cell corner: a leaf, or a ghost of a leaf mirrored across the
 /// domain's boundary. `mirror` holds two bits per axis `k` (bits `2k`,
@@ -128,6 +128,12 @@ impl<F: FnMut(DualCell)> Walker<'_, F> {
         self.nodes[n.node as usize].is_leaf()
     }
 
+    /// Whether `n` is unexplored (a brick's tree): every dual cell with
+    /// it as a corner lies outside the brick, and is skipped.
+    fn outside(&self, n: Corner) -> bool {
+        self.nodes[n.node as usize].leaf() == Some(Leaf::Outside)
+    }
+
     /// Child `c` of `n`, or `n` itself when it is a leaf. A ghost's
     /// children mirror the real node's: flipped along the mirrored axes.
     fn child(&self, n: Corner, c: usize) -> Corner {
@@ -167,7 +173,7 @@ impl<F: FnMut(DualCell)> Walker<'_, F> {
 
     /// The face between `a` (low side along `axis`) and `b` (high side).
     fn face(&mut self, a: Corner, b: Corner, axis: usize) {
-        if self.leaf(a) && self.leaf(b) {
+        if (self.leaf(a) && self.leaf(b)) || self.outside(a) || self.outside(b) {
             return;
         }
         let (p, q) = others(axis);
@@ -206,7 +212,7 @@ impl<F: FnMut(DualCell)> Walker<'_, F> {
     /// high side of the edge along the other two axes `(p, q)` by bits
     /// `k&1`, `k>>1`.
     fn edge(&mut self, n: [Corner; 4], axis: usize) {
-        if n.iter().all(|&k| self.leaf(k)) {
+        if n.iter().all(|&k| self.leaf(k)) || n.iter().any(|&k| self.outside(k)) {
             return;
         }
         let (p, q) = others(axis);
@@ -230,6 +236,9 @@ impl<F: FnMut(DualCell)> Walker<'_, F> {
 
     /// The vertex shared by eight nodes, `n[i]` in octant `i` around it.
     fn vert(&mut self, n: [Corner; 8]) {
+        if n.iter().any(|&k| self.outside(k)) {
+            return;
+        }
         if n.iter().all(|&k| self.leaf(k)) {
             (self.emit)(n);
             return;
@@ -249,7 +258,9 @@ fn others(axis: usize) -> (usize, usize) {
 }
 
 /// Calls `emit` once for every dual cell of `tree`, ghost cells along ∂Ω
-/// included.
+/// included, but those with an unexplored corner ([`Leaf::Outside`], a
+/// brick's tree: such a cell lies outside the brick, and the walk skips
+/// the faces, edges and vertices that touch one).
 pub fn for_each_cell(tree: &Octree, emit: impl FnMut(DualCell)) {
     let mut w = Walker {
         nodes: &tree.nodes,

@@ -50,7 +50,9 @@ use crate::geometry::Bounds;
 use crate::mesh::origin::{self, Origins};
 use crate::mesh::sink::Sink;
 use crate::mesh::{Mesh, topology};
-use crate::octree::{Leaf, MAX_LEVEL, Node, Octree, OctreeStats, Region, TopologyTest};
+use crate::octree::{
+    Leaf, MAX_LEVEL, Node, Octree, OctreeStats, Region, SharedLevels, TopologyTest,
+};
 use crate::polygonize::extract;
 use crate::surface::Surface;
 
@@ -140,14 +142,28 @@ pub fn mesh_brick<E: Evaluator + ?Sized>(
     progress: &(dyn Fn(Stage) + Sync),
     cancel: &Cancel,
 ) -> Result<Part, Cancelled> {
-    let start = Instant::now();
     let domain = opts.domain.unwrap_or(domain);
+    let levels = |level, cells| progress(Stage::Octree { level, cells });
+    let shared = Octree::build_shared(f, domain, &opts.octree, &levels, cancel)?;
+    mesh_brick_from(&shared, domain, opts, brick, progress, cancel)
+}
+
+/// [`mesh_brick`] from the levels every brick shares, built once
+/// ([`Octree::build_shared`] of the same `f`, `domain` and options).
+pub fn mesh_brick_from<E: Evaluator + ?Sized>(
+    shared: &SharedLevels<'_, E>,
+    domain: Bounds,
+    opts: &MeshOptions,
+    brick: Brick,
+    progress: &(dyn Fn(Stage) + Sync),
+    cancel: &Cancel,
+) -> Result<Part, Cancelled> {
+    let start = Instant::now();
+    let f = shared.evaluator();
     let t = opts.octree.t;
     let t0 = Instant::now();
-    let tree = Octree::build_region(
-        f,
-        domain,
-        &opts.octree,
+    let tree = Octree::build_region_from(
+        shared,
         brick.region(),
         &|level, cells| progress(Stage::Octree { level, cells }),
         cancel,
@@ -401,6 +417,9 @@ pub fn mesh_bricks<E: Evaluator + ?Sized, S: Sink>(
     cancel: &Cancel,
 ) -> Result<MeshReport, BrickError> {
     let start = Instant::now();
+    let domain = opts.domain.unwrap_or(domain);
+    let shared = Octree::build_shared(f, domain, &opts.octree, &|_, _| {}, cancel)?;
+    let shared_ms = ms(start);
     let count = Brick::count(level);
     let batch = 2 * rayon::current_num_threads() as u32;
     let mut stitcher = Stitcher::new(sink);
@@ -410,7 +429,7 @@ pub fn mesh_bricks<E: Evaluator + ?Sized, S: Sink>(
             .into_par_iter()
             .map(|i| {
                 let brick = Brick::new(level, i).expect("a brick index below the count");
-                mesh_brick(f, domain, opts, brick, &|_| {}, cancel)
+                mesh_brick_from(&shared, domain, opts, brick, &|_| {}, cancel)
             })
             .collect::<Result<Vec<Part>, Cancelled>>()?;
         for p in parts {
@@ -420,7 +439,9 @@ pub fn mesh_bricks<E: Evaluator + ?Sized, S: Sink>(
         done((first + batch).min(count), count);
     }
     let (welded, _) = stitcher.finish();
-    Ok(merge_reports(&reports, &welded, ms(start)))
+    let mut report = merge_reports(&reports, &welded, ms(start));
+    report.timings.octree += shared_ms;
+    Ok(report)
 }
 
 /// Welds `parts` into one mesh in memory ([`Stitcher`] into a [`Mesh`]).

@@ -315,6 +315,7 @@ pub struct OctreeStats {
 }
 
 /// The adaptive octree. See the module doc.
+#[derive(Clone)]
 pub struct Octree {
     /// All nodes, root first, siblings consecutive (see the module doc's
     /// "Layout").
@@ -588,6 +589,7 @@ impl Tape {
 /// time (so the choice of evaluator never depends on thread timing): a
 /// level whose long programs fit in what is left is interpreted; the first
 /// that does not, and every one after it, goes to the given evaluator.
+#[derive(Clone, Copy)]
 struct Budget {
     left: u64,
     open: bool,
@@ -721,7 +723,8 @@ fn proves_empty<E: Evaluator + ?Sized>(
 struct Builder<'a, E: ?Sized> {
     f: &'a E,
     opts: &'a OctreeOptions,
-    refine: &'a Refine,
+    /// Cells subdivided whatever the criteria (none for a bricked run).
+    refine: Option<&'a Refine>,
     tree: Octree,
     max_level: u8,
     min_level: u8,
@@ -752,7 +755,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
         f: &'a E,
         domain: Bounds,
         opts: &'a OctreeOptions,
-        refine: &'a Refine,
+        refine: Option<&'a Refine>,
         region: Option<Region>,
     ) -> (Self, Tape) {
         let max_level = opts.max_level.min(MAX_LEVEL);
@@ -791,6 +794,27 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             settled: false,
         };
         (b, root)
+    }
+
+    /// A copy of this build to go on with in `region` (a brick of shared
+    /// levels, [`SharedLevels`]).
+    fn fork(&self, region: Option<Region>) -> Self {
+        Builder {
+            f: self.f,
+            opts: self.opts,
+            refine: self.refine,
+            tree: self.tree.clone(),
+            max_level: self.max_level,
+            min_level: self.min_level,
+            full_len: self.full_len,
+            budget: self.budget,
+            store: AtomicU64::new(self.store.load(Ordering::Relaxed)),
+            leaf_live: self.leaf_live,
+            tau: self.tau,
+            ambiguous: self.ambiguous.clone(),
+            region,
+            settled: self.settled,
+        }
     }
 
     /// How a cell of `level` with verdict `v` ends (`None`: subdivided);
@@ -879,7 +903,9 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             });
             for (k, v) in verdicts.iter().enumerate() {
                 let node = &tree.nodes[chunk[start + k].0 as usize];
-                let forced = self.refine.contains(&(node.level, node.ijk));
+                let forced = self
+                    .refine
+                    .is_some_and(|r| r.contains(&(node.level, node.ijk)));
                 let leaf = self.fate(v, forced, level);
                 // A subdivided node hands its children the program pruned
                 // on its box. A leaf keeps its own: pruning an ambiguous
@@ -985,6 +1011,109 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
     }
 }
 
+/// A build in progress: the builder, the frontier of `level`, and the
+/// frontier's verdicts once judged (applied by the next step).
+struct Run<'a, E: ?Sized> {
+    b: Builder<'a, E>,
+    frontier: Vec<(u32, Tape)>,
+    level: u8,
+    judged: Option<Vec<(Option<Leaf>, Tape)>>,
+    evaluated: usize,
+}
+
+impl<'a, E: Evaluator + ?Sized> Run<'a, E> {
+    fn new(
+        f: &'a E,
+        domain: Bounds,
+        opts: &'a OctreeOptions,
+        refine: Option<&'a Refine>,
+        region: Option<Region>,
+    ) -> Self {
+        let (b, root) = Builder::new(f, domain, opts, refine, region);
+        Run {
+            b,
+            frontier: vec![(0, root)],
+            level: 0,
+            judged: None,
+            evaluated: 0,
+        }
+    }
+
+    /// Judges and grows level after level to the end; with `pause`, stops
+    /// right after judging the level that settles the choices of
+    /// evaluator (its verdicts kept, not applied: the region applies from
+    /// them on).
+    fn advance(
+        &mut self,
+        pause: bool,
+        progress: &(dyn Fn(u8, usize) + Sync),
+        cancel: &Cancel,
+    ) -> Result<(), Cancelled> {
+        loop {
+            if let Some(judged) = self.judged.take() {
+                self.frontier = self.b.grow(&self.frontier, judged, self.level);
+                progress(self.level, self.evaluated);
+                self.level += 1;
+            }
+            if self.frontier.is_empty() || self.level > self.b.max_level {
+                return cancel.check();
+            }
+            cancel.check()?;
+            let judged = self.b.judge_level(&self.frontier, self.level, cancel);
+            cancel.check()?;
+            self.evaluated += self.frontier.len();
+            self.judged = Some(judged);
+            if pause && self.b.settled {
+                return Ok(());
+            }
+        }
+    }
+
+    /// A copy to go on with in `region`: the nodes built so far that do
+    /// not meet it become [`Leaf::Outside`] (no dual cell of the region
+    /// has them as corners; their subtrees are cut off), and so does the
+    /// part of the frontier outside it.
+    fn fork(&self, region: Region) -> Self {
+        let mut b = self.b.fork(Some(region));
+        for n in &mut b.tree.nodes {
+            if !region.meets(n) {
+                n.kind = Kind::Leaf(Leaf::Outside);
+            }
+        }
+        let mut frontier = Vec::with_capacity(self.frontier.len());
+        let mut judged = self.judged.as_ref().map(|_| Vec::new());
+        for (k, (i, tape)) in self.frontier.iter().enumerate() {
+            if region.meets(&b.tree.nodes[*i as usize]) {
+                frontier.push((*i, tape.clone()));
+                if let (Some(out), Some(all)) = (&mut judged, &self.judged) {
+                    out.push(all[k].clone());
+                }
+            } else {
+                b.tree.nodes[*i as usize].kind = Kind::Leaf(Leaf::Outside);
+            }
+        }
+        Run {
+            b,
+            frontier,
+            level: self.level,
+            judged,
+            evaluated: self.evaluated,
+        }
+    }
+}
+
+/// The levels every brick of one bricked run builds alike
+/// ([`Octree::build_shared`]): the whole tree down to the level that
+/// settles the choices of evaluator, that level judged.
+pub struct SharedLevels<'a, E: ?Sized>(Run<'a, E>);
+
+impl<'a, E: ?Sized> SharedLevels<'a, E> {
+    /// The function the levels were built for.
+    pub fn evaluator(&self) -> &'a E {
+        self.0.b.f
+    }
+}
+
 impl Octree {
     /// The leaf whose closed box holds `p` (descent by the splitting
     /// planes of [`Octree::cell_box`]), if `p` is in the domain.
@@ -1080,8 +1209,35 @@ impl Octree {
         progress: &(dyn Fn(u8, usize) + Sync),
         cancel: &Cancel,
     ) -> Result<Octree, Cancelled> {
-        let refine = Refine::default();
-        Octree::build_in(f, domain, opts, &refine, Some(region), progress, cancel)
+        let shared = Octree::build_shared(f, domain, opts, progress, cancel)?;
+        Octree::build_region_from(&shared, region, progress, cancel)
+    }
+
+    /// The levels that every brick of a bricked run builds whole (see
+    /// [`Octree::build_region`]), built once: each brick then goes on
+    /// from them ([`Octree::build_region_from`]).
+    pub fn build_shared<'a, E: Evaluator + ?Sized>(
+        f: &'a E,
+        domain: Bounds,
+        opts: &'a OctreeOptions,
+        progress: &(dyn Fn(u8, usize) + Sync),
+        cancel: &Cancel,
+    ) -> Result<SharedLevels<'a, E>, Cancelled> {
+        let mut run = Run::new(f, domain, opts, None, None);
+        run.advance(true, progress, cancel)?;
+        Ok(SharedLevels(run))
+    }
+
+    /// [`Octree::build_region`] from levels built once for every brick.
+    pub fn build_region_from<E: Evaluator + ?Sized>(
+        shared: &SharedLevels<'_, E>,
+        region: Region,
+        progress: &(dyn Fn(u8, usize) + Sync),
+        cancel: &Cancel,
+    ) -> Result<Octree, Cancelled> {
+        let mut run = shared.0.fork(region);
+        run.advance(false, progress, cancel)?;
+        Ok(run.b.finish())
     }
 
     fn build_in<E: Evaluator + ?Sized>(
@@ -1093,22 +1249,9 @@ impl Octree {
         progress: &(dyn Fn(u8, usize) + Sync),
         cancel: &Cancel,
     ) -> Result<Octree, Cancelled> {
-        let (mut b, root) = Builder::new(f, domain, opts, refine, region);
-        let mut frontier: Vec<(u32, Tape)> = vec![(0, root)];
-        let mut evaluated = 0;
-        for level in 0..=b.max_level {
-            if frontier.is_empty() {
-                break;
-            }
-            cancel.check()?;
-            let judged = b.judge_level(&frontier, level, cancel);
-            cancel.check()?;
-            evaluated += frontier.len();
-            frontier = b.grow(&frontier, judged, level);
-            progress(level, evaluated);
-        }
-        cancel.check()?;
-        Ok(b.finish())
+        let mut run = Run::new(f, domain, opts, Some(refine), region);
+        run.advance(false, progress, cancel)?;
+        Ok(run.b.finish())
     }
 
     /// An ambiguous leaf at the maximal level may be ambiguous only because
