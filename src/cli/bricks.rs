@@ -13,7 +13,7 @@ use isoc::mesher::stitch::Stitcher;
 use isoc::mesher::{MeshOptions, MeshReport};
 use serde_json::json;
 
-use super::{Error, MeshArgs, StatsFormat, io_err, print_stats, summary};
+use super::{Error, MeshArgs, StatsFormat, interrupt, io_err, print_stats, summary};
 
 /// Refuses brick flags that cannot work, before any work is done.
 pub fn check(m: &MeshArgs, output: &Path) -> Result<(), Error> {
@@ -51,8 +51,8 @@ pub fn mesh_part(
     output: &Path,
 ) -> Result<MeshReport, Error> {
     let b = Brick::new(bricks, i).ok_or_else(|| Error::Usage(format!("--brick {i}")))?;
-    let (p, info) = brick::mesh_part(surface, opts, b, &isoc::Cancel::new())
-        .map_err(|_| Error::Usage("cancelled".into()))?;
+    let (p, info) =
+        brick::mesh_part(surface, opts, b, &interrupt()).map_err(|_| Error::Interrupted)?;
     let info = info.to_json();
     isoc::io::write_atomic(output, |w| part::write(&p.mesh, &p.origins, &info, w))?;
     // The summary and `--stats` tell the part's own topology: open along
@@ -81,14 +81,14 @@ pub fn mesh_bricked(
         bricks,
         &mut writer,
         &done,
-        &isoc::Cancel::new(),
+        &interrupt(),
     )
     .map_err(|e| match e {
         BrickError::Io(error) => Error::Io {
             path: output.display().to_string(),
             error,
         },
-        BrickError::Cancelled => Error::Usage("cancelled".into()),
+        BrickError::Cancelled => Error::Interrupted,
     })?;
     bar.set_message("writing");
     writer.finish()?;
@@ -152,6 +152,7 @@ pub fn merge(
     err: &mut dyn Write,
 ) -> Result<(), Error> {
     let start = std::time::Instant::now();
+    let cancel = interrupt();
     let unit: threemf::Unit = unit.parse().map_err(Error::Usage)?;
     Format::from_path(output)?;
     let listed = list(parts)?;
@@ -167,6 +168,7 @@ pub fn merge(
     let mut stitcher = Stitcher::new(&mut writer);
     let mut reports = Vec::with_capacity(listed.len());
     for l in &listed {
+        cancel.check().map_err(|_| Error::Interrupted)?;
         let name = l.path.display().to_string();
         let bytes = std::fs::read(&l.path).map_err(io_err(&name))?;
         let (mesh, origins, _) =

@@ -18,6 +18,8 @@ pub enum Error {
     },
     /// The library failed.
     Lib(isoc::Error),
+    /// Ctrl-C stopped the run (exit status 130; nothing written).
+    Interrupted,
 }
 
 impl<E: Into<isoc::Error>> From<E> for Error {
@@ -32,6 +34,7 @@ impl Error {
     pub fn render(&self) -> String {
         let message = match self {
             Error::Usage(m) => m.clone(),
+            Error::Interrupted => "interrupted: nothing was written".to_string(),
             Error::Io { path, error } => format!("{path}: {error}"),
             Error::Lib(e) => {
                 if let Some(s) = e.source_error() {

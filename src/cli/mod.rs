@@ -199,9 +199,36 @@ pub fn run(cli: Cli, out: &mut dyn Write, err: &mut dyn Write) -> i32 {
         Ok(()) => 0,
         Err(e) => {
             let _ = err.write_all(e.render().as_bytes());
-            1
+            if matches!(e, Error::Interrupted) {
+                130
+            } else {
+                1
+            }
         }
     }
+}
+
+/// The token Ctrl-C cancels: the first press stops the run at its next
+/// checkpoint (its temporary files are removed, nothing is written), a
+/// second one ends the process at once. The handler is installed once,
+/// on first use.
+fn interrupt() -> isoc::Cancel {
+    static TOKEN: std::sync::OnceLock<isoc::Cancel> = std::sync::OnceLock::new();
+    TOKEN
+        .get_or_init(|| {
+            let token = isoc::Cancel::new();
+            let t = token.clone();
+            // Without a handler (another one is installed), Ctrl-C keeps
+            // its default: the process ends.
+            let _ = ctrlc::set_handler(move || {
+                if t.is_cancelled() {
+                    std::process::exit(130);
+                }
+                t.cancel();
+            });
+            token
+        })
+        .clone()
 }
 
 fn io_err(path: &str) -> impl Fn(std::io::Error) -> Error + '_ {
@@ -436,6 +463,9 @@ fn mesh_command(
     use isoc::mesher::{self, MeshOptions, Stage};
     use isoc::octree::{OctreeOptions, TopologyTest};
 
+    // Ctrl-C from here on stops the run cleanly.
+    interrupt();
+
     if let Some(k) = m.kmax
         && !(k.is_finite() && k >= 0.0)
     {
@@ -525,14 +555,22 @@ fn mesh_command(
             None,
         ),
         (None, _, Some(d)) => {
-            let (mesh, report, tol) =
-                mesher::mesh_to_tolerance(&surface, surface.domain, &opts, d, &progress);
+            let (mesh, report, tol) = mesher::mesh_to_tolerance_cancellable(
+                &surface,
+                surface.domain,
+                &opts,
+                d,
+                &progress,
+                &interrupt(),
+            )
+            .map_err(|_| Error::Interrupted)?;
             bar.finish_and_clear();
             isoc::io::write_file_in(&mesh, &output, unit)?;
             (report, Some(tol))
         }
         (None, _, None) => {
-            let (mesh, report) = mesher::mesh(&surface, &opts, &progress);
+            let (mesh, report) = mesher::mesh_cancellable(&surface, &opts, &progress, &interrupt())
+                .map_err(|_| Error::Interrupted)?;
             bar.finish_and_clear();
             isoc::io::write_file_in(&mesh, &output, unit)?;
             (report, None)

@@ -223,3 +223,67 @@ fn brick_flags_and_bad_parts_are_errors_that_write_nothing() {
     assert_eq!(left.len(), 3, "no temporary file is left: {left:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn ctrl_c_stops_a_bricked_run_and_leaves_no_file() {
+    let dir = scratch("interrupt");
+    let src = temp_file(
+        "gyroid.iso",
+        b"domain [-31.4, 31.4]^3;\nsurface sin(x)*cos(y) + sin(y)*cos(z) + sin(z)*cos(x);\n",
+    );
+    let out = dir.join("g.ply");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_isoc"))
+        .args([
+            "mesh",
+            s(&src),
+            "--level",
+            "9",
+            "--bricks",
+            "2",
+            "-o",
+            s(&out),
+        ])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("run isoc");
+    // The streamed records' temporary files appear before the first brick.
+    let started = std::time::Instant::now();
+    while std::fs::read_dir(&dir).unwrap().count() == 0 {
+        assert!(
+            started.elapsed().as_secs() < 60,
+            "no temporary file appeared"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let kill = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .expect("kill");
+    assert!(kill.success());
+    let waited = std::time::Instant::now();
+    let status = loop {
+        if let Some(st) = child.try_wait().expect("wait") {
+            break st;
+        }
+        if waited.elapsed().as_secs() > 60 {
+            let _ = child.kill();
+            panic!("isoc did not stop within 60 s of Ctrl-C");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    assert_eq!(
+        status.code(),
+        Some(130),
+        "the exit status of an interrupted run"
+    );
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    assert!(
+        left.is_empty(),
+        "an interrupted run leaves nothing: {left:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
