@@ -756,7 +756,6 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
         domain: Bounds,
         opts: &'a OctreeOptions,
         refine: Option<&'a Refine>,
-        region: Option<Region>,
     ) -> (Self, Tape) {
         let max_level = opts.max_level.min(MAX_LEVEL);
         let tree = Octree {
@@ -790,7 +789,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             leaf_live: 0,
             tau,
             ambiguous: Vec::new(),
-            region,
+            region: None,
             settled: false,
         };
         (b, root)
@@ -798,7 +797,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
 
     /// A copy of this build to go on with in `region` (a brick of shared
     /// levels, [`SharedLevels`]).
-    fn fork(&self, region: Option<Region>) -> Self {
+    fn fork(&self, region: Region) -> Self {
         Builder {
             f: self.f,
             opts: self.opts,
@@ -812,7 +811,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             leaf_live: self.leaf_live,
             tau: self.tau,
             ambiguous: self.ambiguous.clone(),
-            region,
+            region: Some(region),
             settled: self.settled,
         }
     }
@@ -1022,14 +1021,8 @@ struct Run<'a, E: ?Sized> {
 }
 
 impl<'a, E: Evaluator + ?Sized> Run<'a, E> {
-    fn new(
-        f: &'a E,
-        domain: Bounds,
-        opts: &'a OctreeOptions,
-        refine: Option<&'a Refine>,
-        region: Option<Region>,
-    ) -> Self {
-        let (b, root) = Builder::new(f, domain, opts, refine, region);
+    fn new(f: &'a E, domain: Bounds, opts: &'a OctreeOptions, refine: Option<&'a Refine>) -> Self {
+        let (b, root) = Builder::new(f, domain, opts, refine);
         Run {
             b,
             frontier: vec![(0, root)],
@@ -1074,7 +1067,7 @@ impl<'a, E: Evaluator + ?Sized> Run<'a, E> {
     /// has them as corners; their subtrees are cut off), and so does the
     /// part of the frontier outside it.
     fn fork(&self, region: Region) -> Self {
-        let mut b = self.b.fork(Some(region));
+        let mut b = self.b.fork(region);
         for n in &mut b.tree.nodes {
             if !region.meets(n) {
                 n.kind = Kind::Leaf(Leaf::Outside);
@@ -1088,8 +1081,6 @@ impl<'a, E: Evaluator + ?Sized> Run<'a, E> {
                 if let (Some(out), Some(all)) = (&mut judged, &self.judged) {
                     out.push(all[k].clone());
                 }
-            } else {
-                b.tree.nodes[*i as usize].kind = Kind::Leaf(Leaf::Outside);
             }
         }
         Run {
@@ -1187,7 +1178,7 @@ impl Octree {
         progress: &(dyn Fn(u8, usize) + Sync),
         cancel: &Cancel,
     ) -> Result<Octree, Cancelled> {
-        Octree::build_in(f, domain, opts, refine, None, progress, cancel)
+        Octree::build_in(f, domain, opts, refine, progress, cancel)
     }
 
     /// [`Octree::build_cancellable`] for one brick of a bricked run: the
@@ -1223,7 +1214,7 @@ impl Octree {
         progress: &(dyn Fn(u8, usize) + Sync),
         cancel: &Cancel,
     ) -> Result<SharedLevels<'a, E>, Cancelled> {
-        let mut run = Run::new(f, domain, opts, None, None);
+        let mut run = Run::new(f, domain, opts, None);
         run.advance(true, progress, cancel)?;
         Ok(SharedLevels(run))
     }
@@ -1245,11 +1236,10 @@ impl Octree {
         domain: Bounds,
         opts: &OctreeOptions,
         refine: &Refine,
-        region: Option<Region>,
         progress: &(dyn Fn(u8, usize) + Sync),
         cancel: &Cancel,
     ) -> Result<Octree, Cancelled> {
-        let mut run = Run::new(f, domain, opts, Some(refine), region);
+        let mut run = Run::new(f, domain, opts, Some(refine));
         run.advance(false, progress, cancel)?;
         Ok(run.b.finish())
     }
