@@ -20,3 +20,9 @@ impl Rng {
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
 }
+
+/// `src` compiled as an `.iso` file (a test's own text: it must compile).
+pub(crate) fn surface(src: &str) -> crate::Surface {
+    crate::Surface::compile(src, "test.iso", &crate::CompileOptions::default())
+        .unwrap_or_else(|e| panic!("{src}: {e}"))
+}

@@ -12,11 +12,19 @@
 //! relax it). Each [`Tracker::advance`]`(t)` then
 //!
 //! 1. **watches the topology** over `[t_prev, t]` ([`watch`]): a proof by
-//!    interval arithmetic that no critical point crosses the surface; when
-//!    no proof is found, the robust mesher is run at `t` and, if its
-//!    components or genera differ from the mechanical mesh's, the
-//!    mechanical mesh is **re-initialised** from it (beyond the paper,
-//!    whose §5 leaves topology changes open);
+//!    interval arithmetic that no critical point crosses the surface
+//!    (beyond the paper, whose §5 leaves topology changes open). When the
+//!    proof fails in a few cells only, the robust mesher meshes a ball
+//!    around them at `t`, one level finer than the tracker's resolution,
+//!    and once the step below has brought the mechanical mesh to `t` that
+//!    patch is spliced in ([`splice`]): if the spliced mesh's components
+//!    or genera differ from the mechanical mesh's, it is **re-initialised
+//!    locally** — the mechanical mesh becomes the spliced one (made from a
+//!    coarser patch when that one sees the same topology), and the rest of
+//!    the mesh keeps tracking. When the proof fails everywhere, or the
+//!    cells are spread wide, or the splice is refused, the robust mesher
+//!    decides over the whole domain, and a change re-initialises the whole
+//!    mechanical mesh from it;
 //! 2. takes one **quasi-static step** (§2.2, eq. 1): `(I − dt ∂f/∂x) Δx =
 //!    dt f(x)` with co-rotational elements ([`fem`], eq. 2), solved by
 //!    conjugate gradients whose residual and iterates are filtered onto
@@ -30,7 +38,8 @@
 //! 3. **projects** every vertex onto `f(·, t) = 0` ([`crate::roots::walk`], eq. 3,
 //!    safeguarded); a vertex that cannot be projected within reach means
 //!    the mesh lost the surface, and the mechanical mesh is re-initialised
-//!    from the robust mesher;
+//!    from the robust mesher — unless a pending splice cuts the vertex out
+//!    (a neck that splits moves faster than its vertices can follow);
 //! 4. **detects inversions** (§2.6) and, while some remain, takes up to
 //!    `recovery_steps` further steps at the same `t`, in which inverted
 //!    elements get the modified displacements of §2.6.2;
@@ -53,9 +62,12 @@
 //! one had not been asked. Once the mechanical step of a frame
 //! has begun the frame runs to its end: the step, remeshing and the
 //! geometric mesh take time linear in the mesh, a fraction of a robust
-//! mesh's — except when tracking is lost in the step and the tracker
-//! restarts from a robust mesh within the frame (rare; it then takes as
-//! long as a first frame).
+//! mesh's; so does a local re-initialisation (its patch is meshed before
+//! the checkpoint; the splice, a coarser patch and the remeshing of the
+//! result after it) — except when tracking is lost in the step, or a
+//! splice is refused, and the tracker falls back to the robust mesh of
+//! the whole domain within the frame (rare; it then takes as long as a
+//! first frame).
 //!
 //! Every vertex of both meshes is on the surface to machine precision;
 //! both meshes are closed, oriented 2-manifolds (outward = increasing f)
@@ -75,6 +87,7 @@ pub mod error;
 pub(crate) mod fem;
 pub mod geometric;
 pub mod remesh;
+mod splice;
 pub mod watch;
 
 use std::time::Instant;
@@ -95,6 +108,7 @@ use crate::octree::OctreeOptions;
 use crate::surface::Surface;
 pub use error::TrackError;
 use fem::{Frames, Stiffness};
+use splice::Ball;
 
 /// Options of the tracker (`isoc animate`). Defaults follow the paper's
 /// Table 1 where it gives values.
@@ -217,6 +231,9 @@ pub struct FrameReport {
     /// Why the mechanical mesh was rebuilt by the robust mesher this
     /// frame, if it was.
     pub reinitialized: Option<String>,
+    /// Where the mechanical mesh was re-meshed locally this frame (a robust
+    /// mesh of a ball spliced in, [`splice`]), if it was.
+    pub local_remesh: Option<LocalRemesh>,
     /// Connected components of the mechanical mesh.
     pub components: usize,
     /// Genus of each component, in increasing order; `None` for a
@@ -224,6 +241,15 @@ pub struct FrameReport {
     pub genus: Vec<Option<i64>>,
     /// Time spent per part of the frame.
     pub ms: FrameTimings,
+}
+
+/// The ball of a local re-mesh ([`FrameReport::local_remesh`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct LocalRemesh {
+    /// The ball's centre.
+    pub centre: [f64; 3],
+    /// The ball's radius.
+    pub radius: f64,
 }
 
 /// The stepper: see the module doc.
@@ -269,6 +295,27 @@ pub struct Tracker<'s, E: Evaluator + ?Sized = Surface> {
     mechanical: Mesh,
     geometric: Mesh,
     cancel: Cancel,
+}
+
+impl From<Ball> for LocalRemesh {
+    fn from(b: Ball) -> LocalRemesh {
+        LocalRemesh {
+            centre: b.centre.to_array(),
+            radius: b.radius,
+        }
+    }
+}
+
+/// What the topology watch found before the step ([`Tracker::watch`]).
+enum Watch {
+    /// The topology is the tracker's (proved, or seen by the robust mesh
+    /// of the whole domain).
+    Same,
+    /// It changed: the mesh to restart from.
+    Restart(Restart),
+    /// Not proved in a few cells: the robust mesh of a box around them (at
+    /// `level + 1`), to settle after the step ([`Tracker::settle`]).
+    Patch { ball: Ball, level: u8, patch: Mesh },
 }
 
 /// A mechanical mesh started afresh ([`Tracker::restart`]), to install.
@@ -395,7 +442,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             cancel: cancel.clone(),
         };
         let (mesh, topo) = tracker.robust(t0, 0, &tracker.cancel)?;
-        let first = tracker.restart(&mesh, topo, t0, &tracker.cancel)?;
+        let first = tracker.restart(&mesh, topo, t0, RESTART_ROUNDS, &tracker.cancel)?;
         tracker.install(first);
         tracker.mechanical = tracker.mesh.to_mesh();
         tracker.geometric = tracker.mechanical.clone();
@@ -460,6 +507,18 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         cancel: &Cancel,
     ) -> Result<(Mesh, topology::Topology), Cancelled> {
         let level = (self.level + extra).min(crate::octree::MAX_LEVEL);
+        self.robust_in(self.domain, level, t, cancel)
+    }
+
+    /// The robust mesh at `t` over `domain` on the uniform octree of
+    /// `level`, unless `cancel` is cancelled first.
+    fn robust_in(
+        &self,
+        domain: Bounds,
+        level: u8,
+        t: f64,
+        cancel: &Cancel,
+    ) -> Result<(Mesh, topology::Topology), Cancelled> {
         let opts = MeshOptions {
             octree: OctreeOptions {
                 max_level: level,
@@ -471,13 +530,12 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
                 ..OctreeOptions::default()
             },
             smooth: 0,
-            domain: Some(self.domain),
+            domain: Some(domain),
             // The tracker keeps features its own way (the sharp-feature
             // constraint); its starting meshes are plain marching cubes.
             creases: false,
         };
-        let (mesh, report) =
-            mesher::mesh_with_cancellable(self.f, self.domain, &opts, &|_| {}, cancel)?;
+        let (mesh, report) = mesher::mesh_with_cancellable(self.f, domain, &opts, &|_| {}, cancel)?;
         Ok((mesh, report.topology))
     }
 
@@ -492,12 +550,13 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         mesh: &Mesh,
         topo: topology::Topology,
         t: f64,
+        rounds: usize,
         cancel: &Cancel,
     ) -> Result<Restart, Cancelled> {
         let mut dm = DynMesh::from_mesh(mesh);
         let mut inverted = vec![false; dm.tris.len()];
         let params = self.remesh_params(8);
-        for _ in 0..8 {
+        for _ in 0..rounds {
             let mut scratch = remesh::EdgeState::default();
             let c = remesh::remesh(
                 &mut dm,
@@ -534,7 +593,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         let never = Cancel::new();
         let restarted = self
             .robust(t, 0, &never)
-            .and_then(|(mesh, topo)| self.restart(&mesh, topo, t, &never));
+            .and_then(|(mesh, topo)| self.restart(&mesh, topo, t, RESTART_ROUNDS, &never));
         match restarted {
             Ok(r) => self.install(r),
             Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
@@ -568,27 +627,31 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         // 1. Topology watch (it reads the tracker only; a restart it
         // calls for is applied after the last checkpoint).
         let t0 = Instant::now();
-        let restart = match self.watch(t, &mut rep)? {
-            Some((mesh, topo)) => Some(self.restart(&mesh, topo, t, &self.cancel)?),
-            None => None,
-        };
+        let watched = self.watch(t, &mut rep)?;
         rep.ms.watch = ms(t0);
         // The last checkpoint: from here on the frame changes the tracker.
         self.cancel.check()?;
-        if let Some(r) = restart {
-            self.install(r);
-        }
+        let patch = match watched {
+            Watch::Same => None,
+            Watch::Restart(r) => {
+                self.install(r);
+                None
+            }
+            Watch::Patch { ball, level, patch } => Some((ball, level, patch)),
+        };
 
-        // 2–5. Mechanical mesh.
+        // 2–5. Mechanical mesh. Vertices that a pending splice cuts out
+        // need not reach the surface.
         let t0 = Instant::now();
-        let mut step = self.step(t);
+        let spare = patch.as_ref().map(|(ball, _, _)| *ball);
+        let mut step = self.step(t, spare.as_ref());
         if step.failures > 0 {
             rep.reinitialized = Some(format!(
                 "tracking lost: {} vertices could not be projected onto the surface",
                 step.failures
             ));
             self.restart_to_end(t);
-            step = self.step(t);
+            step = self.step(t, None);
             if step.failures > 0 {
                 // Keep the restarted mesh itself: it is on the surface.
                 self.restart_to_end(t);
@@ -596,22 +659,29 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             }
         }
         rep.cg_iterations = step.cg_iterations;
+        let mut spared = step.spared;
         let found = self.flag_inversions();
         rep.inverted_found = found;
-        let mut left = found;
+        // Inverted triangles a pending splice cuts out need no recovery.
+        let mut left = self.inverted_kept(spare.as_ref());
         for _ in 0..self.opts.recovery_steps {
             if left == 0 {
                 break;
             }
-            let s = self.step(t);
+            let s = self.step(t, spare.as_ref());
             rep.cg_iterations += s.cg_iterations;
             if s.failures > 0 {
                 break;
             }
-            left = self.flag_inversions();
+            spared = s.spared;
+            self.flag_inversions();
+            left = self.inverted_kept(spare.as_ref());
         }
         rep.inverted_left = left;
         rep.inverted_repaired = found.saturating_sub(left);
+        if let Some((ball, level, patch)) = patch.filter(|_| rep.reinitialized.is_none()) {
+            self.settle(t, ball, level, &patch, spared > 0, &mut rep);
+        }
         // Remeshing closes the frame, so that the meshes handed out have
         // their edges in [e_min, e_max]·ê; for the next frame's step it is
         // the paper's "before the quasi-static integration step" (§2.5).
@@ -666,26 +736,146 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
     }
 
     /// Step 1 of a frame: when no proof shows that the topology stays the
-    /// same over `[self.t, t]`, the robust mesh at `t`; if its topology
-    /// differs from the tracker's, the mesh to restart from.
-    fn watch(
-        &self,
-        t: f64,
-        rep: &mut FrameReport,
-    ) -> Result<Option<(Mesh, topology::Topology)>, Cancelled> {
+    /// same over `[self.t, t]`, the robust mesher settles it. When the
+    /// proof failed in a few cells only, that is left to
+    /// [`Tracker::settle`] once the step has brought the mesh to `t`, with
+    /// the robust mesh of a box around them (the returned
+    /// [`Watch::Patch`]); otherwise the robust mesh of the whole domain
+    /// decides now ([`Tracker::global`]).
+    fn watch(&self, t: f64, rep: &mut FrameReport) -> Result<Watch, Cancelled> {
         if !(self.opts.watch && self.moves && t != self.t) {
-            return Ok(None);
+            return Ok(Watch::Same);
         }
         let interval = Interval {
             lo: self.t.min(t),
             hi: self.t.max(t),
         };
         let cert = watch::certify(self.f, self.domain, interval, self.level + 1, 50_000);
-        if cert.verdict != watch::Verdict::Unproved {
-            return Ok(None);
-        }
+        let cells = match cert.verdict {
+            watch::Verdict::Proved => return Ok(Watch::Same),
+            watch::Verdict::Local(cells) => cells,
+            watch::Verdict::Unproved => Vec::new(),
+        };
         rep.topology_certified = false;
-        let (mesh, topo) = self.robust(t, 1, &self.cancel)?;
+        if let Some((ball, level)) = self.local_region(&cells) {
+            let (patch, _) = self.robust_in(ball.cube(), level + 1, t, &self.cancel)?;
+            return Ok(Watch::Patch { ball, level, patch });
+        }
+        Ok(match self.global(t, rep, &self.cancel)? {
+            Some(r) => Watch::Restart(r),
+            None => Watch::Same,
+        })
+    }
+
+    /// A ball around `cells` with a margin of [`LOCAL_MARGIN`]·ê whose
+    /// cube lies inside the domain, and the octree level whose cells in
+    /// that cube are no larger than the tracker's; `None` when there are
+    /// no cells, when the cube would pass a quarter of the domain's
+    /// largest side, or when it cannot be placed inside the domain with the
+    /// cells well within the ball.
+    fn local_region(&self, cells: &[Bounds]) -> Option<(Ball, u8)> {
+        let first = cells.first()?;
+        let (mut lo, mut hi) = (DVec3::from_array(first.lo), DVec3::from_array(first.hi));
+        for c in cells {
+            lo = lo.min(DVec3::from_array(c.lo));
+            hi = hi.max(DVec3::from_array(c.hi));
+        }
+        let d = &self.domain;
+        let (dlo, dhi) = (DVec3::from_array(d.lo), DVec3::from_array(d.hi));
+        let inner = (hi - lo).length() / 2.0;
+        let radius = inner + LOCAL_MARGIN * self.edge;
+        if 2.0 * 2.0 * radius > (dhi - dlo).max_element()
+            || 2.0 * radius > (dhi - dlo).min_element()
+        {
+            return None;
+        }
+        // Centred on the cells, shifted into the domain.
+        let centre = ((lo + hi) / 2.0)
+            .min(dhi - DVec3::splat(radius))
+            .max(dlo + DVec3::splat(radius));
+        let reach = (centre - lo).abs().max((hi - centre).abs()).length();
+        if reach > inner + (LOCAL_MARGIN - 1.0) * self.edge {
+            return None;
+        }
+        let cell = ((dhi - dlo) / (1u64 << self.level) as f64).max_element();
+        let max = f64::from(crate::octree::MAX_LEVEL - 1);
+        let level = (2.0 * radius / cell).log2().ceil().clamp(2.0, max) as u8;
+        Some((Ball { centre, radius }, level))
+    }
+
+    /// The topology at `t`, from the patch `patch` of [`Tracker::watch`]
+    /// spliced into the mechanical mesh ([`splice`]) that the step has
+    /// brought to `t`: when it differs from the tracker's, the spliced mesh
+    /// is installed (with the patch at a coarser level when that one sees
+    /// the new topology too), and when it is the same it is installed only
+    /// if the step `spared` vertices (left them off the surface, in the
+    /// ball). A refused splice falls back to the whole domain
+    /// ([`Tracker::global`]), or to a restart when vertices were spared.
+    /// Past the frame's last checkpoint: runs to its end.
+    fn settle(
+        &mut self,
+        t: f64,
+        ball: Ball,
+        level: u8,
+        patch: &Mesh,
+        spared: bool,
+        rep: &mut FrameReport,
+    ) {
+        let mesh = self.mesh.to_mesh();
+        let spliced = |patch: &Mesh| splice::splice(&mesh, patch, &ball, self.edge).ok();
+        let never = Cancel::new();
+        let found = match spliced(patch) {
+            None if spared => {
+                rep.reinitialized = Some(
+                    "tracking lost: vertices could not be projected onto the surface \
+                     and the local re-mesh was refused"
+                        .into(),
+                );
+                self.restart_to_end(t);
+                return;
+            }
+            None => self.global(t, rep, &never),
+            Some((fine, topo)) if topo_key(&topo) == self.topo => {
+                if !spared {
+                    return;
+                }
+                rep.local_remesh = Some(ball.into());
+                self.restart(&fine, topo, t, SPLICE_ROUNDS, &never)
+                    .map(Some)
+            }
+            Some((fine, topo)) => {
+                let now = topo_key(&topo);
+                rep.reinitialized = Some(format!(
+                    "topology changed: {} component(s), genus {:?} → {} component(s), genus {:?}",
+                    self.topo.0, self.topo.1, now.0, now.1
+                ));
+                rep.local_remesh = Some(ball.into());
+                let coarser = |extra: u8| {
+                    let (patch, _) = self.robust_in(ball.cube(), level - extra, t, &never).ok()?;
+                    spliced(&patch).filter(|(_, c)| topo_key(c) == now)
+                };
+                let (mesh, topo) = coarser(1).or_else(|| coarser(0)).unwrap_or((fine, topo));
+                self.restart(&mesh, topo, t, SPLICE_ROUNDS, &never)
+                    .map(Some)
+            }
+        };
+        match found {
+            Ok(Some(r)) => self.install(r),
+            Ok(None) => {}
+            Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
+        }
+    }
+
+    /// The topology from the robust mesh over the whole domain, one level
+    /// finer than the tracker's; if it differs from the tracker's, the
+    /// mechanical mesh to restart from.
+    fn global(
+        &self,
+        t: f64,
+        rep: &mut FrameReport,
+        cancel: &Cancel,
+    ) -> Result<Option<Restart>, Cancelled> {
+        let (mesh, topo) = self.robust(t, 1, cancel)?;
         let now = topo_key(&topo);
         if now == self.topo {
             return Ok(None);
@@ -696,12 +886,19 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         ));
         // Restart at the tracker's own resolution when that mesh sees the
         // new topology too (fewer, larger triangles to start from).
-        let (coarse, ctopo) = self.robust(t, 0, &self.cancel)?;
-        Ok(Some(if topo_key(&ctopo) == now {
+        let (coarse, ctopo) = self.robust(t, 0, cancel)?;
+        let (mesh, topo) = if topo_key(&ctopo) == now {
             (coarse, ctopo)
         } else {
             (mesh, topo)
-        }))
+        };
+        Ok(Some(self.restart(
+            &mesh,
+            topo,
+            t,
+            RESTART_ROUNDS,
+            cancel,
+        )?))
     }
 
     /// Flags inverted triangles at the current gradients; returns how many.
@@ -714,6 +911,23 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             n += inv as usize;
         }
         n
+    }
+
+    /// Flagged inverted triangles with no corner that a splice over
+    /// `spare` cuts out (all of them without one).
+    fn inverted_kept(&self, spare: Option<&Ball>) -> usize {
+        let kept = |t: &[u32; 3]| {
+            spare.is_none_or(|b| {
+                t.iter()
+                    .all(|&v| !b.cut(self.mesh.pos[v as usize], self.edge))
+            })
+        };
+        self.mesh
+            .tris
+            .iter()
+            .zip(&self.inverted)
+            .filter(|(t, inv)| **inv && kept(t))
+            .count()
     }
 
     fn compact(&mut self) {
@@ -745,8 +959,11 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             .collect();
     }
 
-    /// One quasi-static step at time `t`, then projection.
-    fn step(&mut self, t: f64) -> StepResult {
+    /// One quasi-static step at time `t`, then projection. A vertex that
+    /// cannot be projected is a failure, unless it lies deep enough in
+    /// `spare` for a splice to cut it out (it then stays where the step
+    /// put it; [`StepResult::spared`] counts it).
+    fn step(&mut self, t: f64, spare: Option<&Ball>) -> StepResult {
         let n = self.mesh.pos.len();
         // Gradients at the current positions (one batch over the live
         // vertices).
@@ -786,7 +1003,8 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
                 crate::roots::walk::newton(self.f, t, p, reach, self.edge)
             })
             .collect();
-        let mut failures = 0;
+        let (mut failures, mut spared) = (0, 0);
+        let cut = |p: DVec3| spare.is_some_and(|b| b.cut(p, self.edge));
         for (i, m) in moved.into_iter().enumerate() {
             if !self.mesh.vert_alive[i] {
                 continue;
@@ -796,12 +1014,17 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
                     self.mesh.pos[i] = s.pos;
                     self.mesh.grad[i] = s.grad;
                 }
+                None if cut(self.mesh.pos[i] + dx[i]) => {
+                    self.mesh.pos[i] += dx[i];
+                    spared += 1;
+                }
                 None => failures += 1,
             }
         }
         StepResult {
             cg_iterations: iters,
             failures,
+            spared,
         }
     }
 
@@ -912,6 +1135,20 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
     }
 }
 
+/// The margin (in ê) around the cells the topology proof failed in, for
+/// the ball re-meshed locally: the splice keeps the patch only deeper than
+/// [`splice::PATCH_DEPTH`]·ê inside the ball, and the failed cells must lie
+/// well within what it keeps.
+const LOCAL_MARGIN: f64 = splice::PATCH_DEPTH + 4.5;
+
+/// Remeshing calls (of 8 sweeps each, until one changes nothing) that
+/// turn a robust mesh into a first mechanical mesh.
+const RESTART_ROUNDS: usize = 8;
+
+/// Remeshing calls after a splice: only the patch and the strip need
+/// them, and the frames that follow go on remeshing.
+const SPLICE_ROUNDS: usize = 1;
+
 /// Most refinement passes accepted.
 pub(crate) const MAX_PASSES: usize = 12;
 
@@ -970,6 +1207,8 @@ impl Preconditioner {
 struct StepResult {
     cg_iterations: usize,
     failures: usize,
+    /// Vertices left off the surface for a splice to cut out.
+    spared: usize,
 }
 
 /// Components and the sorted genera: what "the same topology" compares.

@@ -19,10 +19,13 @@
 //! `{(x, t) : F(x, t) = 0}` is a manifold transverse to the time slices and
 //! its projection to `T` is a proper submersion: by Ehresmann's theorem all
 //! the `Zₜ`, `t ∈ T`, are isotopic (components and genus unchanged).
-//! Cells that fail are subdivided down to `max_level`; a cell still
-//! failing there, or a work budget spent, makes the answer
-//! [`Verdict::Unproved`] — *maybe* a topology change, which the tracker
-//! then settles with the robust mesher.
+//! Cells that fail are subdivided down to `max_level`. Cells still
+//! failing there make the answer [`Verdict::Local`]: the proof holds
+//! everywhere but in them, so a topology change, if any, happens inside
+//! them (every other cell is accepted for the whole interval), and the
+//! tracker settles it with the robust mesher over a box around them. A
+//! work budget spent makes the answer [`Verdict::Unproved`], with no
+//! localisation.
 //!
 //! Any [`Evaluator`] will do; each level's cells are one
 //! [`Evaluator::grad_batch`] call, and one [`Evaluator::interval_batch`]
@@ -35,16 +38,27 @@ use crate::geometry::Bounds;
 use crate::interval::Interval;
 
 /// What [`certify`] concluded.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Verdict {
     /// Topology proved unchanged over the interval.
     Proved,
-    /// No proof found (the topology may or may not change).
+    /// Proved outside these cells (at `max_level`), not inside them: the
+    /// topology may change, only there.
+    Local(Vec<Bounds>),
+    /// No proof found within the budget (the topology may or may not
+    /// change, anywhere).
     Unproved,
 }
 
+impl Verdict {
+    /// The topology was proved unchanged.
+    pub fn proved(&self) -> bool {
+        *self == Verdict::Proved
+    }
+}
+
 /// Counts from one [`certify`] call.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Report {
     /// Whether the topology was proved unchanged.
     pub verdict: Verdict,
@@ -73,6 +87,7 @@ pub fn certify<E: Evaluator + ?Sized>(
     let mut level = 0u8;
     let mut cells: Vec<[u32; 3]> = vec![[0, 0, 0]];
     let mut evaluated = 0usize;
+    let mut failed = Vec::new();
     while !cells.is_empty() {
         let n = 1u32 << level;
         let boxes: Vec<[Interval; 4]> = cells
@@ -120,7 +135,14 @@ pub fn certify<E: Evaluator + ?Sized>(
             if g.defined && !on_boundary && regular {
                 continue;
             }
-            if level >= max_level || evaluated + 8 * (next.len() + 8) > budget {
+            if level >= max_level {
+                failed.push(Bounds {
+                    lo: corner(level, ijk).to_array(),
+                    hi: corner(level, ijk.map(|i| i + 1)).to_array(),
+                });
+                continue;
+            }
+            if evaluated + 8 * (next.len() + 8) > budget {
                 return Report {
                     verdict: Verdict::Unproved,
                     cells: evaluated,
@@ -138,7 +160,11 @@ pub fn certify<E: Evaluator + ?Sized>(
         level += 1;
     }
     Report {
-        verdict: Verdict::Proved,
+        verdict: if failed.is_empty() {
+            Verdict::Proved
+        } else {
+            Verdict::Local(failed)
+        },
         cells: evaluated,
     }
 }

@@ -257,29 +257,53 @@ fn no_refinement_copies_the_mechanical_mesh() {
     );
 }
 
-#[test]
-fn merging_blobs_reinitialise_at_the_right_frame() {
+/// Tracks `blobs_merge` from `t0` to `t1` in `frames` frames with edge
+/// `edge` (`None`: the default), checking every frame against the truth
+/// (connected iff f(0, 0, 0, t) < 0: the saddle between the blobs is at
+/// the origin), and that the mechanical mesh is re-initialised at the
+/// first frame whose topology differs from the first's and nowhere else,
+/// by a local re-mesh around the origin.
+fn blobs_change_topology_at_the_right_frame(
+    edge: Option<f64>,
+    (t0, t1, frames): (f64, f64, usize),
+) {
     let s = corpus("blobs_merge");
-    let opts = TwinOptions::default();
-    let frames = 21;
-    let mut tr = Tracker::new(&s, 0.0, &opts).expect("tracker");
+    let opts = TwinOptions {
+        edge,
+        ..TwinOptions::default()
+    };
+    let time = |k: usize| t0 + (t1 - t0) * k as f64 / (frames - 1) as f64;
+    let connected = |k: usize| s.point([0.0, 0.0, 0.0, time(k)]) < 0.0;
+    let mut tr = Tracker::new(&s, t0, &opts).expect("tracker");
     let mut reinit_at = Vec::new();
     for k in 0..frames {
-        let t = k as f64 / (frames - 1) as f64;
-        let rep = tr.advance(t).expect("frame");
-        // Truth: connected iff f(0, 0, 0, t) < 0 (the saddle between the
-        // blobs is at the origin).
-        let connected = s.point([0.0, 0.0, 0.0, t]) < 0.0;
-        let comps = if connected { 1 } else { 2 };
-        check_frame(&s, &tr, &rep, k, comps, 0);
+        let rep = tr.advance(time(k)).expect("frame");
+        check_frame(&s, &tr, &rep, k, if connected(k) { 1 } else { 2 }, 0);
         if rep.reinitialized.is_some() {
+            let ball = rep.local_remesh.expect("a local re-mesh");
+            let centre = DVec3::from_array(ball.centre);
+            assert!(centre.length() < ball.radius / 2.0, "frame {k}: {ball:?}");
             reinit_at.push(k);
         }
     }
-    let first_connected = (0..frames)
-        .find(|&k| s.point([0.0, 0.0, 0.0, k as f64 / (frames - 1) as f64]) < 0.0)
-        .expect("the blobs merge");
-    assert_eq!(reinit_at, vec![first_connected]);
+    let change = (0..frames)
+        .find(|&k| connected(k) != connected(0))
+        .expect("the topology changes");
+    assert_eq!(reinit_at, vec![change], "edge {edge:?}");
+}
+
+#[test]
+fn merging_blobs_reinitialise_at_the_right_frame() {
+    blobs_change_topology_at_the_right_frame(None, (0.0, 1.0, 21));
+    blobs_change_topology_at_the_right_frame(Some(0.1), (0.0, 0.5, 11));
+}
+
+#[test]
+fn splitting_blobs_reinitialise_at_the_right_frame() {
+    // The merge played backwards; at edge 0.05 the neck's vertices cannot
+    // follow the split, and are cut out by the local re-mesh.
+    blobs_change_topology_at_the_right_frame(None, (0.6, 0.0, 13));
+    blobs_change_topology_at_the_right_frame(Some(0.05), (0.5, 0.0, 11));
 }
 
 #[test]
@@ -374,17 +398,36 @@ fn the_topology_watch_proves_only_what_is_true() {
     // search.
     let s = corpus("blobs_merge");
     let t_star = 1.6 - (20.0f64 / 3.0).ln().sqrt();
+    // Where it finds cells it cannot prove, the saddle point at the
+    // origin (the merge) is in one of them.
     for (lo, hi) in [(0.2, 0.25), (0.22, 0.23), (0.0, 1.0), (t_star, t_star)] {
         let r = certify(&s, s.domain, iv(lo, hi), 8, 200_000);
-        assert_eq!(r.verdict, Verdict::Unproved, "blobs over [{lo}, {hi}]");
+        match r.verdict {
+            Verdict::Proved => panic!("blobs over [{lo}, {hi}] proved"),
+            Verdict::Unproved => {}
+            Verdict::Local(cells) => assert!(
+                cells
+                    .iter()
+                    .any(|c| (0..3).all(|k| c.lo[k] <= 0.0 && 0.0 <= c.hi[k])),
+                "blobs over [{lo}, {hi}]: the origin is in none of {cells:?}"
+            ),
+        }
     }
     // Far from the merge it is provable.
     let r = certify(&s, s.domain, iv(0.0, 0.05), 7, 50_000);
     assert_eq!(r.verdict, Verdict::Proved);
-    // A surface that crosses the domain boundary is never certified.
+    // A surface that crosses the domain boundary is never certified: the
+    // cells it fails in are on the boundary.
     let s = surface("domain [-1, 1]^3; surface x - 0.5 * t;");
     let r = certify(&s, s.domain, iv(0.0, 0.1), 6, 50_000);
-    assert_eq!(r.verdict, Verdict::Unproved);
+    let Verdict::Local(cells) = r.verdict else {
+        panic!("{r:?}")
+    };
+    assert!(
+        cells
+            .iter()
+            .all(|c| c.lo.contains(&-1.0) || c.hi.contains(&1.0))
+    );
 }
 
 /// A tracker's Cancel token: a cancelled frame leaves the tracker at its
