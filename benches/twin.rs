@@ -1,29 +1,79 @@
-//! Twinned-mesh tracking (`isoc animate`) against re-meshing every frame
-//! from scratch, side by side in the same run (Bouthors & Nesme 2007 §4).
+//! Twinned-mesh tracking (`isoc animate`) against meshing every frame
+//! from scratch, side by side in the same run (Bouthors & Nesme 2007 §4),
+//! at about 10k, 50k and 200k geometric triangles on three animations:
 //!
-//! On `corpus/ellipsoid_spin.iso` (ê = 0.07, α_r = 7°) and
-//! `corpus/blobs_pass.iso` (ê = 0.14, α_r = 6°), 4 passes — about 2,000
-//! mechanical and 10,000 geometric triangles — frames 0.01 apart in `t`:
+//! - `merge`: `corpus/blobs_merge.iso` over t ∈ [0, 0.5] (the blobs merge
+//!   at t ≈ 0.223);
+//! - `split`: the same played backwards (they split);
+//! - `spin`: `corpus/ellipsoid_spin.iso` over t ∈ [0, 0.5] (turning and
+//!   stretching, no topology change).
 //!
-//! - `twin/frame`: one whole `Tracker::advance` (topology watch,
-//!   mechanical step, remeshing, geometric rebuild);
-//! - `twin/mechanical`: the same with the geometric refinement off
-//!   (N_p = 0), i.e. watch + mechanical mesh;
-//! - `twin/geometric`: the geometric rebuild alone, from a fixed
-//!   mechanical mesh;
-//! - `twin/remesh`: the robust mesher from scratch (level 8, the k_max
-//!   whose triangle count is closest to the geometric mesh's, 2 smoothing
-//!   passes), the kernels already compiled.
+//! 26 frames each (Δt = 0.02), α_r = 5°, N_p = 4; the mechanical edge ê
+//! is chosen per animation and size so that the geometric mesh has about
+//! the target's triangles at the first frame. For each case the bench
+//! first tracks the whole animation once and prints (stderr) a line of
+//! `docs/twin.md`'s table: triangles, the median frame and its stages
+//! (`FrameReport::ms`), the slowest frame over the median (the topology
+//! change), frames per second, and the robust mesher from scratch on the
+//! middle frame — the octree level and `k_max` whose triangle count is
+//! nearest the geometric mesh's, 2 smoothing passes, kernels compiled —
+//! with the ratio tracked ÷ from scratch. Then criterion measures:
 //!
-//! Run: `cargo bench --bench twin`. Ratios are in `docs/twin.md`.
+//! - `twin/<anim>/<size>/frame`: `Tracker::advance` over the animation's
+//!   frames in turn (a new tracker, untimed, when it ends), so the mean
+//!   includes the topology-change frame;
+//! - `twin/<anim>/<size>/scratch`: the robust mesher on the middle frame.
+//!
+//! Run: `RAYON_NUM_THREADS=1 cargo bench --bench twin` (and with 2).
+//! Figures are in `docs/twin.md`.
 
 use std::hint::black_box;
+use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use isoc::mesher::{self, MeshOptions};
 use isoc::octree::OctreeOptions;
-use isoc::twin::{Tracker, TwinOptions, geometric};
+use isoc::twin::{FrameReport, Tracker, TwinOptions};
 use isoc::{CompileOptions, Surface};
+
+/// An animation: corpus file, first and last time.
+struct Animation {
+    name: &'static str,
+    file: &'static str,
+    t0: f64,
+    t1: f64,
+}
+
+const ANIMATIONS: [Animation; 3] = [
+    Animation {
+        name: "merge",
+        file: "blobs_merge",
+        t0: 0.0,
+        t1: 0.5,
+    },
+    Animation {
+        name: "split",
+        file: "blobs_merge",
+        t0: 0.5,
+        t1: 0.0,
+    },
+    Animation {
+        name: "spin",
+        file: "ellipsoid_spin",
+        t0: 0.0,
+        t1: 0.5,
+    },
+];
+
+const FRAMES: usize = 26;
+const SIZES: [usize; 3] = [10_000, 50_000, 200_000];
+const ALPHA: f64 = 5.0;
+
+impl Animation {
+    fn time(&self, k: usize) -> f64 {
+        self.t0 + (self.t1 - self.t0) * k as f64 / (FRAMES - 1) as f64
+    }
+}
 
 fn surface(name: &str) -> Surface {
     let path = format!("{}/corpus/{name}.iso", env!("CARGO_MANIFEST_DIR"));
@@ -31,10 +81,36 @@ fn surface(name: &str) -> Surface {
     Surface::compile(&src, &path, &CompileOptions::default()).expect("compiles")
 }
 
-fn remesh_options(kmax: f64, t: f64) -> MeshOptions {
+fn options(edge: f64) -> TwinOptions {
+    TwinOptions {
+        edge: Some(edge),
+        alpha_deg: ALPHA,
+        passes: 4,
+        ..TwinOptions::default()
+    }
+}
+
+/// The edge whose geometric mesh has about `target` triangles at the
+/// animation's first frames (three secant steps on log size vs log edge,
+/// from triangles ∝ ê⁻²).
+fn edge_for(s: &Surface, a: &Animation, target: usize) -> f64 {
+    let mut edge = 0.1;
+    for _ in 0..3 {
+        let mut tr = Tracker::new(s, a.t0, &options(edge)).expect("tracker");
+        let rep = tr.advance(a.time(1)).expect("frame");
+        let ratio = rep.geometric_triangles as f64 / target as f64;
+        if (ratio.ln()).abs() < 0.1 {
+            break;
+        }
+        edge *= ratio.sqrt();
+    }
+    edge
+}
+
+fn scratch_options(level: u8, kmax: f64, t: f64) -> MeshOptions {
     MeshOptions {
         octree: OctreeOptions {
-            max_level: 8,
+            max_level: level,
             kmax,
             t,
             ..OctreeOptions::default()
@@ -43,88 +119,106 @@ fn remesh_options(kmax: f64, t: f64) -> MeshOptions {
     }
 }
 
+/// The robust mesher's options at `t` whose triangle count is nearest
+/// `target`, with that count.
+fn scratch_for(s: &Surface, t: f64, target: usize) -> (MeshOptions, usize) {
+    let mut best = (scratch_options(8, 0.3, t), usize::MAX, f64::INFINITY);
+    for level in [7u8, 8, 9] {
+        for kmax in [1.0, 0.5, 0.3, 0.2, 0.15, 0.1] {
+            let opts = scratch_options(level, kmax, t);
+            let n = mesher::mesh(s, &opts, &|_| {}).0.triangles.len();
+            let miss = (n as f64 / target as f64).ln().abs();
+            if miss < best.2 {
+                best = (opts, n, miss);
+            }
+        }
+    }
+    (best.0, best.1)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Tracks the whole animation once; its frame reports.
+fn track(s: &Surface, a: &Animation, opts: &TwinOptions) -> Vec<FrameReport> {
+    let mut tr = Tracker::new(s, a.t0, opts).expect("tracker");
+    (0..FRAMES)
+        .map(|k| tr.advance(a.time(k)).expect("frame"))
+        .collect()
+}
+
 fn twin(c: &mut Criterion) {
+    let threads = rayon::current_num_threads();
+    eprintln!(
+        "| animation | target | ê | mechanical / geometric triangles | median frame ms (watch / mechanical / geometric) | slowest frame ÷ median | fps | from scratch ms (triangles) | tracked ÷ from scratch | ({threads} thread(s)) |"
+    );
     let mut g = c.benchmark_group("twin");
-    g.sample_size(20);
-    for (name, edge, alpha_deg) in [("ellipsoid_spin", 0.07, 7.0), ("blobs_pass", 0.14, 6.0)] {
-        let s = surface(name);
-        let opts = TwinOptions {
-            edge: Some(edge),
-            alpha_deg,
-            passes: 4,
-            ..TwinOptions::default()
-        };
+    g.sample_size(10);
+    g.warm_up_time(Duration::from_millis(500));
+    g.measurement_time(Duration::from_secs(3));
+    for a in &ANIMATIONS {
+        let s = surface(a.file);
+        for target in SIZES {
+            let edge = edge_for(&s, a, target);
+            let opts = options(edge);
+            // Skip frame 0 (the tracker's construction relaxes there).
+            let reps = &track(&s, a, &opts)[1..];
+            let med = |f: fn(&FrameReport) -> f64| median(reps.iter().map(f).collect());
+            let frame = med(|r| r.ms.total);
+            let slowest = reps.iter().map(|r| r.ms.total).fold(0.0, f64::max);
+            let mid = FRAMES / 2;
+            let geo = reps[mid - 1].geometric_triangles;
+            let (scratch, n) = scratch_for(&s, a.time(mid), geo);
+            let scratch_ms = median(
+                (0..3)
+                    .map(|_| {
+                        let t0 = Instant::now();
+                        black_box(mesher::mesh(&s, &scratch, &|_| {}));
+                        t0.elapsed().as_secs_f64() * 1e3
+                    })
+                    .collect(),
+            );
+            eprintln!(
+                "| {} | {}k | {edge:.4} | {} / {} | {frame:.1} ({:.1} / {:.1} / {:.1}) | {:.1} | {:.1} | {scratch_ms:.0} ({n}, level {}, k_max {}) | {:.3} |",
+                a.name,
+                target / 1000,
+                med(|r| r.mechanical_triangles as f64),
+                med(|r| r.geometric_triangles as f64),
+                med(|r| r.ms.watch),
+                med(|r| r.ms.mechanical),
+                med(|r| r.ms.geometric),
+                slowest / frame,
+                1e3 / frame,
+                scratch.octree.max_level,
+                scratch.octree.kmax,
+                frame / scratch_ms,
+            );
 
-        // Warm up a tracker past the initial relaxation.
-        let mut tr = Tracker::new(&s, 0.0, &opts).expect("tracker");
-        let mut t = 0.0;
-        for _ in 0..10 {
-            t += 0.01;
-            tr.advance(t).expect("frame");
+            let id = format!("{}/{}k", a.name, target / 1000);
+            g.bench_function(format!("{id}/frame"), |b| {
+                let mut tr = Tracker::new(&s, a.t0, &opts).expect("tracker");
+                let mut k = 1;
+                b.iter_custom(|iters| {
+                    let mut spent = Duration::ZERO;
+                    for _ in 0..iters {
+                        if k == FRAMES {
+                            tr = Tracker::new(&s, a.t0, &opts).expect("tracker");
+                            k = 1;
+                        }
+                        let t0 = Instant::now();
+                        black_box(tr.advance(a.time(k)).expect("frame"));
+                        spent += t0.elapsed();
+                        k += 1;
+                    }
+                    spent
+                })
+            });
+            g.bench_function(format!("{id}/scratch"), |b| {
+                b.iter(|| black_box(mesher::mesh(&s, &scratch, &|_| {})))
+            });
         }
-        t += 0.01;
-        let rep = tr.advance(t).expect("frame");
-        eprintln!(
-            "{name}: {} mechanical, {} geometric triangles at t = {t:.2}",
-            rep.mechanical_triangles, rep.geometric_triangles
-        );
-        g.bench_function(format!("frame/{name}"), |b| {
-            b.iter(|| {
-                t += 0.01;
-                black_box(tr.advance(t).expect("frame"))
-            })
-        });
-
-        let mech_only = TwinOptions { passes: 0, ..opts };
-        let mut tm = Tracker::new(&s, 0.0, &mech_only).expect("tracker");
-        let mut tt = 0.0;
-        for _ in 0..11 {
-            tt += 0.01;
-            tm.advance(tt).expect("frame");
-        }
-        g.bench_function(format!("mechanical/{name}"), |b| {
-            b.iter(|| {
-                tt += 0.01;
-                black_box(tm.advance(tt).expect("frame"))
-            })
-        });
-
-        let mech = tm.mechanical().clone();
-        g.bench_function(format!("geometric/{name}"), |b| {
-            b.iter(|| {
-                black_box(geometric::refine(
-                    &mech,
-                    &s,
-                    tt,
-                    opts.alpha_deg,
-                    opts.passes,
-                ))
-            })
-        });
-
-        // The robust mesher (level 8) at the k_max whose triangle count is
-        // nearest the geometric mesh's.
-        let target = rep.geometric_triangles as f64;
-        let count = |k: f64| {
-            let (m, _) = mesher::mesh(&s, &remesh_options(k, tt), &|_| {});
-            m.triangles.len()
-        };
-        let kmax = [1.0, 0.5, 0.4, 0.3, 0.25, 0.2, 0.15]
-            .into_iter()
-            .min_by_key(|&k| ((count(k) as f64 / target).ln().abs() * 1e6) as u64)
-            .unwrap_or(0.3);
-        eprintln!(
-            "{name} remesh: level 8, k_max {kmax}: {} triangles (geometric mesh: {})",
-            count(kmax),
-            rep.geometric_triangles
-        );
-        let mut tr2 = tt;
-        g.bench_function(format!("remesh/{name}"), |b| {
-            b.iter(|| {
-                tr2 += 0.01;
-                black_box(mesher::mesh(&s, &remesh_options(kmax, tr2), &|_| {}))
-            })
-        });
     }
     g.finish();
 }

@@ -149,12 +149,13 @@ pub(crate) fn splice(
     if outer.iter().chain(&inner).map(Vec::len).sum::<usize>() > MAX_RIM {
         return Err(Refused::TooLong);
     }
-    for (hole, rim) in pair(&out.positions, &outer, &inner, edge)? {
+    let pairs = pair(&out.positions, &outer, &inner, edge)?;
+    for (hole, rim) in outer.iter().zip(pairs) {
         if !zip(
             &out.positions,
             &out.normals,
-            &hole,
-            &rim,
+            hole,
+            &inner[rim],
             &mut out.triangles,
         ) {
             return Err(Refused::TooLong);
@@ -260,13 +261,14 @@ fn gap(p: &[DVec3], a: &[u32], b: &[u32]) -> f64 {
     a.iter().map(|&v| near(v)).sum::<f64>() / a.len() as f64
 }
 
-/// Pairs each hole rim with the nearest patch rim, one to one.
+/// Pairs each hole rim with the nearest patch rim, one to one: for each
+/// hole in turn, the index of its rim.
 fn pair(
     p: &[DVec3],
     holes: &[Vec<u32>],
     rims: &[Vec<u32>],
     edge: f64,
-) -> Result<Vec<(Vec<u32>, Vec<u32>)>, Refused> {
+) -> Result<Vec<usize>, Refused> {
     if holes.len() != rims.len() {
         return Err(Refused::RimsDisagree);
     }
@@ -286,7 +288,7 @@ fn pair(
             return Err(Refused::RimsApart);
         }
         taken[best] = true;
-        out.push((hole.clone(), rims[best].clone()));
+        out.push(best);
     }
     Ok(out)
 }
