@@ -8,9 +8,9 @@
 //! - `spin`: `corpus/ellipsoid_spin.iso` over t ∈ [0, 0.5] (turning and
 //!   stretching, no topology change).
 //!
-//! 26 frames each (Δt = 0.02), α_r = 5°, N_p = 4; the mechanical edge ê
-//! is chosen per animation and size so that the geometric mesh has about
-//! the target's triangles at the first frame. For each case the bench
+//! 26 frames each (Δt = 0.02), N_p = 4; per animation and size, ê is
+//! chosen for a mechanical mesh of about an eighth of the target and α_r
+//! for a geometric mesh of about the target, at the first frame. For each case the bench
 //! first tracks the whole animation once and prints (stderr) a line of
 //! `docs/twin.md`'s table: triangles, the median frame and its stages
 //! (`FrameReport::ms`), the slowest frame over the median (the topology
@@ -33,7 +33,7 @@ use std::time::{Duration, Instant};
 use criterion::{Criterion, criterion_group, criterion_main};
 use isoc::mesher::{self, MeshOptions};
 use isoc::octree::OctreeOptions;
-use isoc::twin::{FrameReport, Tracker, TwinOptions};
+use isoc::twin::{FrameReport, Tracker, TwinOptions, geometric};
 use isoc::{CompileOptions, Surface};
 
 /// An animation: corpus file, first and last time.
@@ -67,7 +67,6 @@ const ANIMATIONS: [Animation; 3] = [
 
 const FRAMES: usize = 26;
 const SIZES: [usize; 3] = [10_000, 50_000, 200_000];
-const ALPHA: f64 = 5.0;
 
 impl Animation {
     fn time(&self, k: usize) -> f64 {
@@ -81,31 +80,46 @@ fn surface(name: &str) -> Surface {
     Surface::compile(&src, &path, &CompileOptions::default()).expect("compiles")
 }
 
-fn options(edge: f64) -> TwinOptions {
+fn options(edge: f64, alpha_deg: f64) -> TwinOptions {
     TwinOptions {
         edge: Some(edge),
-        alpha_deg: ALPHA,
+        alpha_deg,
         passes: 4,
         ..TwinOptions::default()
     }
 }
 
-/// The edge whose geometric mesh has about `target` triangles at the
-/// animation's first frames (three secant steps on log size vs log edge,
-/// from triangles ∝ ê⁻²).
-fn edge_for(s: &Surface, a: &Animation, target: usize) -> f64 {
+/// Options whose meshes at the animation's start have about `target`
+/// geometric triangles: ê for a mechanical mesh of about target / 8
+/// (three secant steps from triangles ∝ ê⁻²), then α_r by bisection on
+/// its logarithm.
+fn options_for(s: &Surface, a: &Animation, target: usize) -> TwinOptions {
+    let mech_target = target as f64 / GEOMETRIC_PER_MECHANICAL;
     let mut edge = 0.1;
+    let mut tr = Tracker::new(s, a.t0, &options(edge, 20.0)).expect("tracker");
     for _ in 0..3 {
-        let mut tr = Tracker::new(s, a.t0, &options(edge)).expect("tracker");
-        let rep = tr.advance(a.time(1)).expect("frame");
-        let ratio = rep.geometric_triangles as f64 / target as f64;
-        if (ratio.ln()).abs() < 0.1 {
+        let ratio = tr.mechanical().triangles.len() as f64 / mech_target;
+        if ratio.ln().abs() < 0.1 {
             break;
         }
         edge *= ratio.sqrt();
+        tr = Tracker::new(s, a.t0, &options(edge, 20.0)).expect("tracker");
     }
-    edge
+    let (mut lo, mut hi) = (0.2f64, 40.0f64);
+    for _ in 0..8 {
+        let mid = (lo * hi).sqrt();
+        let (geo, _) = geometric::refine(tr.mechanical(), s, a.t0, mid, 4);
+        if geo.triangles.len() > target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    options(edge, (lo * hi).sqrt())
 }
+
+/// How many geometric triangles per mechanical one the bench asks for.
+const GEOMETRIC_PER_MECHANICAL: f64 = 8.0;
 
 fn scratch_options(level: u8, kmax: f64, t: f64) -> MeshOptions {
     MeshOptions {
@@ -152,7 +166,7 @@ fn track(s: &Surface, a: &Animation, opts: &TwinOptions) -> Vec<FrameReport> {
 fn twin(c: &mut Criterion) {
     let threads = rayon::current_num_threads();
     eprintln!(
-        "| animation | target | ê | mechanical / geometric triangles | median frame ms (watch / mechanical / geometric) | slowest frame ÷ median | fps | from scratch ms (triangles) | tracked ÷ from scratch | ({threads} thread(s)) |"
+        "| animation | target | ê, α_r | mechanical / geometric triangles | median frame ms (watch / mechanical / geometric) | slowest frame ÷ median | fps | from scratch ms (triangles) | tracked ÷ from scratch | ({threads} thread(s)) |"
     );
     let mut g = c.benchmark_group("twin");
     g.sample_size(10);
@@ -161,8 +175,7 @@ fn twin(c: &mut Criterion) {
     for a in &ANIMATIONS {
         let s = surface(a.file);
         for target in SIZES {
-            let edge = edge_for(&s, a, target);
-            let opts = options(edge);
+            let opts = options_for(&s, a, target);
             // Skip frame 0 (the tracker's construction relaxes there).
             let reps = &track(&s, a, &opts)[1..];
             let med = |f: fn(&FrameReport) -> f64| median(reps.iter().map(f).collect());
@@ -181,9 +194,11 @@ fn twin(c: &mut Criterion) {
                     .collect(),
             );
             eprintln!(
-                "| {} | {}k | {edge:.4} | {} / {} | {frame:.1} ({:.1} / {:.1} / {:.1}) | {:.1} | {:.1} | {scratch_ms:.0} ({n}, level {}, k_max {}) | {:.3} |",
+                "| {} | {}k | {:.3}, {:.1}° | {} / {} | {frame:.1} ({:.1} / {:.1} / {:.1}) | {:.1} | {:.1} | {scratch_ms:.0} ({n}, level {}, k_max {}) | {:.3} |",
                 a.name,
                 target / 1000,
+                opts.edge.unwrap_or(0.0),
+                opts.alpha_deg,
                 med(|r| r.mechanical_triangles as f64),
                 med(|r| r.geometric_triangles as f64),
                 med(|r| r.ms.watch),
