@@ -632,12 +632,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         rep.flips = counts.flips;
         rep.inverted_left = self.flag_inversions();
         self.edges.frozen = std::mem::take(&mut self.edges.new_frozen);
-        self.edges.prev_len = self
-            .mesh
-            .edges()
-            .into_iter()
-            .map(|e| (e, self.mesh.length(e)))
-            .collect();
+        self.edges.prev_pos.clone_from(&self.mesh.pos);
         if self.mesh.pos.len() > 2 * self.mesh.live_vert_count() + 64 {
             self.compact();
         }
@@ -732,11 +727,17 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             (a != u32::MAX && b != u32::MAX).then(|| key(a, b))
         };
         let e = &mut self.edges;
-        e.prev_len = e
-            .prev_len
-            .iter()
-            .filter_map(|(&k, &l)| map(k).map(|k| (k, l)))
-            .collect();
+        if !e.prev_pos.is_empty() {
+            let mut prev = vec![DVec3::NAN; self.mesh.pos.len()];
+            for (old, &new) in remap.iter().enumerate() {
+                if new != u32::MAX
+                    && let Some(&p) = e.prev_pos.get(old)
+                {
+                    prev[new as usize] = p;
+                }
+            }
+            e.prev_pos = prev;
+        }
         e.frozen = e.frozen.iter().filter_map(|&k| map(k)).collect();
         e.held = e
             .held
