@@ -89,6 +89,7 @@ impl Stiffness {
         Stiffness { k, rest }
     }
 
+    #[inline]
     fn mul(&self, d: &[f64; 6]) -> [f64; 6] {
         let mut out = [0.0; 6];
         for (o, row) in out.iter_mut().zip(&self.k) {
