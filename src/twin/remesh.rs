@@ -116,7 +116,10 @@ pub struct EdgeState {
 /// Edges between two polls of the cancel token.
 const POLL_EDGES: usize = 4096;
 
-/// Whether edge `e` of length `len` is outside the band, and on which
+/// Edges with their lengths.
+type Candidates = Vec<(EdgeKey, f64)>;
+
+/// Whether an edge of length `len` is outside the band, and on which
 /// side: `Some(true)` too long, `Some(false)` too short.
 fn outside(len: f64, p: &Params) -> Option<bool> {
     if len > p.e_max * p.edge {
@@ -131,7 +134,7 @@ fn outside(len: f64, p: &Params) -> Option<bool> {
 /// The edges outside the band `[e_min, e_max]·ê`, each once with its
 /// length: the ones to split and the ones to collapse (unsorted, see
 /// [`order`]). One pass over the triangles.
-fn candidates(mesh: &DynMesh, p: &Params) -> (Vec<(EdgeKey, f64)>, Vec<(EdgeKey, f64)>) {
+fn candidates(mesh: &DynMesh, p: &Params) -> (Candidates, Candidates) {
     let (mut long, mut short) = (Vec::new(), Vec::new());
     for (_, t) in mesh.live_tris() {
         for k in 0..3 {
@@ -160,15 +163,52 @@ fn candidates(mesh: &DynMesh, p: &Params) -> (Vec<(EdgeKey, f64)>, Vec<(EdgeKey,
     (long, short)
 }
 
-/// Sorts the candidates as a stable sort of the key-sorted edge list by
-/// length would: the long ones longest first, the short ones shortest
-/// first (ties by key, increasing for the long ones, decreasing for the
-/// short ones); drops repeats.
+/// The order of the candidates to split: as a stable sort of the
+/// key-sorted edge list by decreasing length would put them.
+fn longest_first(a: &(EdgeKey, f64), b: &(EdgeKey, f64)) -> std::cmp::Ordering {
+    b.1.total_cmp(&a.1).then(a.0.cmp(&b.0))
+}
+
+/// The order of the candidates to collapse: the reverse of a stable sort
+/// of the key-sorted edge list by decreasing length.
+fn shortest_first(a: &(EdgeKey, f64), b: &(EdgeKey, f64)) -> std::cmp::Ordering {
+    a.1.total_cmp(&b.1).then(b.0.cmp(&a.0))
+}
+
+/// Sorts the candidates (the long ones [`longest_first`], the short ones
+/// [`shortest_first`]); drops repeats.
 fn order(long: &mut Vec<(EdgeKey, f64)>, short: &mut Vec<(EdgeKey, f64)>) {
-    long.sort_unstable_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
-    short.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)));
+    long.sort_unstable_by(longest_first);
+    short.sort_unstable_by(shortest_first);
     long.dedup_by_key(|x| x.0);
     short.dedup_by_key(|x| x.0);
+}
+
+/// Merges the sorted `fresh` into the sorted `list` (no key in both).
+fn merge(
+    list: &mut Vec<(EdgeKey, f64)>,
+    fresh: &[(EdgeKey, f64)],
+    cmp: fn(&(EdgeKey, f64), &(EdgeKey, f64)) -> std::cmp::Ordering,
+    scratch: &mut Vec<(EdgeKey, f64)>,
+) {
+    if fresh.is_empty() {
+        return;
+    }
+    scratch.clear();
+    scratch.reserve(list.len() + fresh.len());
+    let (mut i, mut j) = (0, 0);
+    while i < list.len() && j < fresh.len() {
+        if cmp(&fresh[j], &list[i]).is_lt() {
+            scratch.push(fresh[j]);
+            j += 1;
+        } else {
+            scratch.push(list[i]);
+            i += 1;
+        }
+    }
+    scratch.extend_from_slice(&list[i..]);
+    scratch.extend_from_slice(&fresh[j..]);
+    std::mem::swap(list, scratch);
 }
 
 /// The vertices a sweep has touched: flags, and the list of the flagged
@@ -251,35 +291,54 @@ pub fn remesh<E: Evaluator + ?Sized>(
     // no flag reaches it.
     let mut known: HashMap<EdgeKey, Held> = HashMap::default();
     let (mut long, mut short) = candidates(mesh, p);
+    order(&mut long, &mut short);
+    let (mut fresh_long, mut fresh_short, mut scratch) = (Vec::new(), Vec::new(), Vec::new());
     for sweep in 0..p.sweeps {
         let before = counts;
         if sweep > 0 {
             // The candidates: edges whose ends no flag reached keep their
-            // length (and the others are the flagged vertices' edges).
+            // length and their place (and the others are the flagged
+            // vertices' edges, sorted apart and merged in).
             let keep = |&(e, _): &(EdgeKey, f64)| !(dirty.get(e.0) || dirty.get(e.1));
             long.retain(keep);
             short.retain(keep);
+            fresh_long.clear();
+            fresh_short.clear();
             for &v in &dirty.list {
-                // Each edge of `v` from its triangles, some twice (`order`
-                // drops repeats).
-                for &i in &mesh.star[v as usize] {
+                // Each edge of `v` once, from the triangle that reads it
+                // out of `v` or, when none does (a boundary edge), into
+                // `v`; an edge of two flagged vertices from its smaller
+                // end. (Repeats, from inconsistent orientations, are
+                // dropped by `order`.)
+                let star = &mesh.star[v as usize];
+                let next = |i: u32| {
                     let t = mesh.tris[i as usize];
                     let k = (0..3).find(|&k| t[k] == v).unwrap_or(0);
-                    for w in [t[(k + 1) % 3], t[(k + 2) % 3]] {
+                    (t[(k + 1) % 3], t[(k + 2) % 3])
+                };
+                for &i in star {
+                    let (n, prev) = next(i);
+                    let into = !star.iter().any(|&j| next(j).0 == prev);
+                    for w in [Some(n), into.then_some(prev)].into_iter().flatten() {
+                        if dirty.get(w) && w < v {
+                            continue;
+                        }
                         let e = key(v, w);
                         let len = mesh.length(e);
                         match outside(len, p) {
-                            Some(true) => long.push((e, len)),
-                            Some(false) => short.push((e, len)),
+                            Some(true) => fresh_long.push((e, len)),
+                            Some(false) => fresh_short.push((e, len)),
                             None => {}
                         }
                     }
                 }
             }
+            order(&mut fresh_long, &mut fresh_short);
+            merge(&mut long, &fresh_long, longest_first, &mut scratch);
+            merge(&mut short, &fresh_short, shortest_first, &mut scratch);
             dirty.take(&mut last);
         }
         dirty.grow(mesh.pos.len());
-        order(&mut long, &mut short);
         let EdgeState {
             frozen,
             new_frozen,
@@ -447,7 +506,7 @@ pub fn remesh<E: Evaluator + ?Sized>(
                     let run = quads[r..].iter().take_while(|q| q.0 == b).count();
                     let (c, d) = (quads[r].1, quads[r + run - 1].1);
                     r += run;
-                    if visited % POLL_EDGES == 0 {
+                    if visited.is_multiple_of(POLL_EDGES) {
                         cancel.check()?;
                     }
                     visited += 1;
@@ -512,6 +571,17 @@ fn may_violate_delaunay(mesh: &DynMesh, a: u32, b: u32, c: u32, d: u32) -> bool 
 /// The geometric conditions of a collapse of `a–b` to `p` (see the module
 /// doc).
 fn collapse_keeps_shape(mesh: &DynMesh, a: u32, b: u32, p: DVec3, g: DVec3, max_len: f64) -> bool {
+    // The edge lengths first: the cheapest test, and the one that refuses
+    // most. (The neighbours come from the stars; repeats do no harm.)
+    for v in [a, b] {
+        for &ti in &mesh.star[v as usize] {
+            for w in mesh.tris[ti as usize] {
+                if w != a && w != b && mesh.pos[w as usize].distance(p) > max_len {
+                    return false;
+                }
+            }
+        }
+    }
     for v in [a, b] {
         for &ti in &mesh.star[v as usize] {
             let t = mesh.tris[ti as usize];
@@ -544,14 +614,6 @@ fn collapse_keeps_shape(mesh: &DynMesh, a: u32, b: u32, p: DVec3, g: DVec3, max_
             // Quality floor: no sliver.
             if aspect(q) < 0.2 {
                 return false;
-            }
-        }
-        // The neighbours of `v`, from its star (repeats do no harm).
-        for &ti in &mesh.star[v as usize] {
-            for w in mesh.tris[ti as usize] {
-                if w != a && w != b && mesh.pos[w as usize].distance(p) > max_len {
-                    return false;
-                }
             }
         }
     }
