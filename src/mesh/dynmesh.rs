@@ -16,8 +16,16 @@
 //! [`crate::mesh::Mesh`]; every operation here preserves that orientation.
 
 use glam::DVec3;
+use smallvec::SmallVec;
 
 use super::Mesh;
+
+/// The triangles of one edge, as [`DynMesh::edge_tris`] lists them, on the
+/// stack for the usual one or two.
+type EdgeTris = SmallVec<[(u32, [u32; 3]); 2]>;
+
+/// A vertex's neighbours, on the stack up to a generous valence.
+type Ring = SmallVec<[u32; 32]>;
 
 /// An undirected edge, smaller index first.
 pub(crate) type EdgeKey = (u32, u32);
@@ -141,6 +149,16 @@ impl DynMesh {
             .collect()
     }
 
+    /// [`DynMesh::edge_tris`] without a heap allocation for up to two
+    /// triangles.
+    fn edge_tris_small(&self, a: u32, b: u32) -> EdgeTris {
+        self.star[a as usize]
+            .iter()
+            .filter(|&&i| self.tris[i as usize].contains(&b))
+            .map(|&i| (i, rotate_to_edge(self.tris[i as usize], a, b)))
+            .collect()
+    }
+
     /// The two live triangles of an interior edge `a–b` (as
     /// [`DynMesh::edge_tris`] rotates them), or `None` when the edge has
     /// another number of triangles. No allocation.
@@ -194,15 +212,59 @@ impl DynMesh {
         out
     }
 
-    /// The vertices adjacent to `v`.
+    /// The vertices adjacent to `v`, in increasing order.
     pub fn neighbours(&self, v: u32) -> Vec<u32> {
-        let mut out: Vec<u32> = self.star[v as usize]
-            .iter()
-            .flat_map(|&i| self.tris[i as usize])
-            .filter(|&w| w != v)
-            .collect();
-        out.sort_unstable();
-        out.dedup();
+        let mut out = Vec::new();
+        self.neighbours_into(v, &mut out);
+        out
+    }
+
+    /// [`DynMesh::neighbours`] appended to `out` (which the caller may
+    /// reuse across calls: no allocation once it is large enough).
+    pub fn neighbours_into(&self, v: u32, out: &mut Vec<u32>) {
+        let start = out.len();
+        let star = &self.star[v as usize];
+        out.reserve(2 * star.len());
+        for &i in star {
+            for w in self.tris[i as usize] {
+                if w != v {
+                    out.push(w);
+                }
+            }
+        }
+        out[start..].sort_unstable();
+        let mut w = start;
+        for r in start..out.len() {
+            if w == start || out[r] != out[w - 1] {
+                out[w] = out[r];
+                w += 1;
+            }
+        }
+        out.truncate(w);
+    }
+
+    /// [`DynMesh::neighbours`] on the stack for usual valences.
+    fn ring(&self, v: u32) -> Ring {
+        let star = &self.star[v as usize];
+        let mut out = Ring::new();
+        if 2 * star.len() > out.inline_size() {
+            // A rare high valence: the general path.
+            let mut all = Vec::new();
+            self.neighbours_into(v, &mut all);
+            out.extend(all);
+            return out;
+        }
+        for &i in star {
+            for w in self.tris[i as usize] {
+                if w != v {
+                    // Insertion into the sorted prefix, skipping repeats.
+                    match out.binary_search(&w) {
+                        Ok(_) => {}
+                        Err(k) => out.insert(k, w),
+                    }
+                }
+            }
+        }
         out
     }
 
@@ -232,7 +294,7 @@ impl DynMesh {
     /// `[a, b, c]` becomes `[a, m, c]`, `[m, b, c]`. Returns the new vertex.
     pub fn split(&mut self, a: u32, b: u32, p: DVec3, g: DVec3) -> u32 {
         let m = self.add_vertex(p, g);
-        for (i, [x, y, c]) in self.edge_tris(a, b) {
+        for (i, [x, y, c]) in self.edge_tris_small(a, b) {
             self.set_tri(i, [x, m, c]);
             self.add_tri([m, y, c]);
         }
@@ -243,14 +305,18 @@ impl DynMesh {
     /// the edge die, `b`'s other triangles take `a` instead. The caller
     /// has checked [`DynMesh::can_collapse_topologically`].
     pub fn collapse(&mut self, a: u32, b: u32, p: DVec3, g: DVec3) {
-        for (i, _) in self.edge_tris(a, b) {
+        for (i, _) in self.edge_tris_small(a, b) {
             self.kill_tri(i);
         }
-        for i in self.star[b as usize].clone() {
+        // `b`'s star is emptied anyway: take it rather than copy it.
+        let star_b = std::mem::take(&mut self.star[b as usize]);
+        for &i in &star_b {
             let t = self.tris[i as usize].map(|v| if v == b { a } else { v });
             self.set_tri(i, t);
         }
         self.vert_alive[b as usize] = false;
+        // Keep the emptied list's allocation.
+        self.star[b as usize] = star_b;
         self.star[b as usize].clear();
         self.pos[a as usize] = p;
         self.grad[a as usize] = g;
@@ -268,15 +334,31 @@ impl DynMesh {
         if opp[0] == opp[1] {
             return false;
         }
-        let na = self.neighbours(a);
-        let nb = self.neighbours(b);
-        let common = na.iter().filter(|v| nb.binary_search(v).is_ok()).count();
+        // Valence of the opposite vertices after the collapse (the
+        // cheapest test, first).
+        if !opp.iter().all(|&v| self.star[v as usize].len() > 3) {
+            return false;
+        }
+        let na = self.ring(a);
+        let nb = self.ring(b);
+        // Common neighbours of the two sorted rings, by a merge.
+        let (mut i, mut j, mut common) = (0, 0, 0);
+        while i < na.len() && j < nb.len() {
+            match na[i].cmp(&nb[j]) {
+                std::cmp::Ordering::Less => i += 1,
+                std::cmp::Ordering::Greater => j += 1,
+                std::cmp::Ordering::Equal => {
+                    common += 1;
+                    i += 1;
+                    j += 1;
+                }
+            }
+        }
         if common != 2 || !opp.iter().all(|v| na.binary_search(v).is_ok()) {
             return false;
         }
-        // Valence of the opposite vertices after the collapse; and the
-        // merged vertex keeps at least 3 neighbours.
-        opp.iter().all(|&v| self.star[v as usize].len() > 3) && na.len() + nb.len() - 4 >= 3
+        // The merged vertex keeps at least 3 neighbours.
+        na.len() + nb.len() - 4 >= 3
     }
 
     /// Flips edge `a–b`: `[a, b, c]`, `[b, a, d]` become `[a, d, c]`,
@@ -351,14 +433,28 @@ impl DynMesh {
     }
 
     /// A plain [`Mesh`] of the live part, normals the unit gradients.
+    /// Live vertices and triangles are numbered as [`DynMesh::compact`]
+    /// would, without copying the stars.
     pub fn to_mesh(&self) -> Mesh {
-        let mut c = self.clone();
-        c.compact();
+        let mut remap = vec![u32::MAX; self.pos.len()];
+        let live = self.live_vert_count();
+        let (mut positions, mut normals) = (Vec::with_capacity(live), Vec::with_capacity(live));
+        for (i, alive) in self.vert_alive.iter().enumerate() {
+            if *alive {
+                remap[i] = positions.len() as u32;
+                positions.push(self.pos[i]);
+                normals.push(self.grad[i].normalize_or_zero());
+            }
+        }
+        let triangles = self
+            .live_tris()
+            .map(|(_, t)| t.map(|v| remap[v as usize]))
+            .collect();
         Mesh {
-            normals: c.grad.iter().map(|g| g.normalize_or_zero()).collect(),
-            ambiguous: vec![false; c.pos.len()],
-            positions: c.pos,
-            triangles: c.tris,
+            ambiguous: vec![false; positions.len()],
+            positions,
+            normals,
+            triangles,
         }
     }
 }

@@ -89,6 +89,7 @@ impl Stiffness {
         Stiffness { k, rest }
     }
 
+    #[inline]
     fn mul(&self, d: &[f64; 6]) -> [f64; 6] {
         let mut out = [0.0; 6];
         for (o, row) in out.iter_mut().zip(&self.k) {
@@ -113,13 +114,15 @@ pub(crate) struct Frame {
     pub verts: [u32; 3],
     pub x: DVec3,
     pub y: DVec3,
-    /// Local displacement `d` (already modified for inverted elements).
-    pub d: [f64; 6],
 }
 
 /// The frames of all live elements for one step.
 pub(crate) struct Frames {
+    /// Each element's vertices and axes: what the stiffness product reads.
     pub frames: Vec<Frame>,
+    /// Each element's local displacement `d` (already modified for
+    /// inverted elements), kept apart since only the forces read it.
+    pub d: Vec<[f64; 6]>,
 }
 
 impl Frames {
@@ -127,18 +130,18 @@ impl Frames {
     /// `inverted[i]` says whether triangle `i` is inverted.
     pub fn new(mesh: &DynMesh, stiff: &Stiffness, inverted: &[bool]) -> Frames {
         let live: Vec<(u32, [u32; 3])> = mesh.live_tris().collect();
-        let frames = live
+        let (frames, d) = live
             .par_iter()
             .filter_map(|&(i, t)| frame(mesh, stiff, t, inverted[i as usize]))
-            .collect();
-        Frames { frames }
+            .unzip();
+        Frames { frames, d }
     }
 
     /// Elastic forces `f = Σ −R K d` per vertex.
     pub fn forces(&self, stiff: &Stiffness, n: usize) -> Vec<DVec3> {
         let mut f = vec![DVec3::ZERO; n];
-        for fr in &self.frames {
-            let kd = stiff.mul(&fr.d);
+        for (fr, d) in self.frames.iter().zip(&self.d) {
+            let kd = stiff.mul(d);
             for (k, &v) in fr.verts.iter().enumerate() {
                 f[v as usize] -= fr.x * kd[2 * k] + fr.y * kd[2 * k + 1];
             }
@@ -186,7 +189,7 @@ fn outer(a: DVec3, b: DVec3) -> DMat3 {
     DMat3::from_cols(a * b.x, a * b.y, a * b.z)
 }
 
-fn frame(mesh: &DynMesh, stiff: &Stiffness, t: [u32; 3], inv: bool) -> Option<Frame> {
+fn frame(mesh: &DynMesh, stiff: &Stiffness, t: [u32; 3], inv: bool) -> Option<(Frame, [f64; 6])> {
     let p = t.map(|v| mesh.pos[v as usize]);
     let n = (p[1] - p[0]).cross(p[2] - p[0]);
     // Order: for an inverted element, the vertex of smallest height (the
@@ -224,7 +227,7 @@ fn frame(mesh: &DynMesh, stiff: &Stiffness, t: [u32; 3], inv: bool) -> Option<Fr
     let [_, v0, w0] = stiff.rest;
     let wy = if inv { wl.y + w0.y } else { wl.y - w0.y };
     let d = [0.0, 0.0, len - v0.x, 0.0, wl.x - w0.x, wy];
-    Some(Frame { verts, x, y, d })
+    Some((Frame { verts, x, y }, d))
 }
 
 #[cfg(test)]

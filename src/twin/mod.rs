@@ -702,12 +702,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         rep.flips = counts.flips;
         rep.inverted_left = self.flag_inversions();
         self.edges.frozen = std::mem::take(&mut self.edges.new_frozen);
-        self.edges.prev_len = self
-            .mesh
-            .edges()
-            .into_iter()
-            .map(|e| (e, self.mesh.length(e)))
-            .collect();
+        self.edges.prev_pos.clone_from(&self.mesh.pos);
         if self.mesh.pos.len() > 2 * self.mesh.live_vert_count() + 64 {
             self.compact();
         }
@@ -946,11 +941,17 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             (a != u32::MAX && b != u32::MAX).then(|| key(a, b))
         };
         let e = &mut self.edges;
-        e.prev_len = e
-            .prev_len
-            .iter()
-            .filter_map(|(&k, &l)| map(k).map(|k| (k, l)))
-            .collect();
+        if !e.prev_pos.is_empty() {
+            let mut prev = vec![DVec3::NAN; self.mesh.pos.len()];
+            for (old, &new) in remap.iter().enumerate() {
+                if new != u32::MAX
+                    && let Some(&p) = e.prev_pos.get(old)
+                {
+                    prev[new as usize] = p;
+                }
+            }
+            e.prev_pos = prev;
+        }
         e.frozen = e.frozen.iter().filter_map(|&k| map(k)).collect();
         e.held = e
             .held
@@ -1036,56 +1037,57 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
     /// side.
     fn solve(&self, frames: &Frames, normals: &[DVec3], b: &[DVec3]) -> (Vec<DVec3>, usize) {
         let n = b.len();
-        let filter = |v: &mut [DVec3]| {
-            for (x, nrm) in v.iter_mut().zip(normals) {
-                *x -= *nrm * x.dot(*nrm);
-            }
-        };
-        let dot = |a: &[DVec3], b: &[DVec3]| a.iter().zip(b).map(|(x, y)| x.dot(*y)).sum::<f64>();
         let dt = self.opts.dt;
-        let apply = |p: &[DVec3], out: &mut Vec<DVec3>| {
-            frames.apply(&self.stiff, p, out);
-            for (o, x) in out.iter_mut().zip(p) {
-                *o = *x + *o * dt;
-            }
-            filter(out);
-        };
+        // Every vector below lives for the whole solve (no allocation per
+        // iteration); the loops over vertices are fused, each sum still
+        // taken in vertex order.
         let precondition = Preconditioner::new(&frames.diagonal(&self.stiff, n), normals, dt);
         let mut x = vec![DVec3::ZERO; n];
         let mut r = b.to_vec();
-        filter(&mut r);
-        let b_norm = dot(&r, &r).sqrt();
+        let mut b_norm = 0.0;
+        for (v, nrm) in r.iter_mut().zip(normals) {
+            *v -= *nrm * v.dot(*nrm);
+            b_norm += v.dot(*v);
+        }
+        let b_norm = f64::sqrt(b_norm);
         if b_norm == 0.0 {
             return (x, 0);
         }
-        let mut z = precondition.apply(&r);
+        let mut z = vec![DVec3::ZERO; n];
+        let mut rz = precondition.apply(&r, &mut z);
         let mut p = z.clone();
-        let mut rz = dot(&r, &z);
         let mut ap = vec![DVec3::ZERO; n];
         let mut iters = 0;
         for _ in 0..self.opts.cg_iterations {
             iters += 1;
-            apply(&p, &mut ap);
-            let pap = dot(&p, &ap);
+            // ap = filter(p + dt K p), and p·ap.
+            frames.apply(&self.stiff, &p, &mut ap);
+            let mut pap = 0.0;
+            for ((o, x), nrm) in ap.iter_mut().zip(&p).zip(normals) {
+                let v = *x + *o * dt;
+                *o = v - *nrm * v.dot(*nrm);
+                pap += x.dot(*o);
+            }
             if pap <= 0.0 || !pap.is_finite() {
                 break;
             }
             let alpha = rz / pap;
+            let mut rr = 0.0;
             for i in 0..n {
                 x[i] += p[i] * alpha;
                 r[i] -= ap[i] * alpha;
+                rr += r[i].dot(r[i]);
             }
-            if dot(&r, &r).sqrt() < self.opts.cg_tolerance * b_norm {
+            if rr.sqrt() < self.opts.cg_tolerance * b_norm {
                 break;
             }
-            z = precondition.apply(&r);
-            let rz_new = dot(&r, &z);
+            let rz_new = precondition.apply(&r, &mut z);
             if rz_new <= 0.0 || !rz_new.is_finite() {
                 break;
             }
             let beta = rz_new / rz;
-            for i in 0..n {
-                p[i] = z[i] + p[i] * beta;
+            for (p, z) in p.iter_mut().zip(&z) {
+                *p = *z + *p * beta;
             }
             rz = rz_new;
         }
@@ -1198,8 +1200,14 @@ impl Preconditioner {
         outer(t1, t1) * ia + (outer(t1, t2) + outer(t2, t1)) * ib + outer(t2, t2) * id
     }
 
-    fn apply(&self, r: &[DVec3]) -> Vec<DVec3> {
-        self.blocks.iter().zip(r).map(|(m, v)| *m * *v).collect()
+    /// `z = P r`; returns `r·z` (summed in vertex order).
+    fn apply(&self, r: &[DVec3], z: &mut [DVec3]) -> f64 {
+        let mut rz = 0.0;
+        for ((m, v), z) in self.blocks.iter().zip(r).zip(z.iter_mut()) {
+            *z = *m * *v;
+            rz += v.dot(*z);
+        }
+        rz
     }
 }
 
