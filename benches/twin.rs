@@ -137,14 +137,20 @@ fn scratch_options(level: u8, kmax: f64, t: f64) -> MeshOptions {
 /// `target`, with that count.
 fn scratch_for(s: &Surface, t: f64, target: usize) -> (MeshOptions, usize) {
     let mut best = (scratch_options(8, 0.3, t), usize::MAX, f64::INFINITY);
-    for level in [7u8, 8, 9] {
+    for level in 7u8..=10 {
+        let mut most = 0;
         for kmax in [1.0, 0.5, 0.3, 0.2, 0.15, 0.1] {
             let opts = scratch_options(level, kmax, t);
             let n = mesher::mesh(s, &opts, &|_| {}).0.triangles.len();
+            most = most.max(n);
             let miss = (n as f64 / target as f64).ln().abs();
             if miss < best.2 {
                 best = (opts, n, miss);
             }
+        }
+        // Finer levels only give more triangles.
+        if most >= target {
+            break;
         }
     }
     (best.0, best.1)
