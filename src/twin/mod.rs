@@ -519,22 +519,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         t: f64,
         cancel: &Cancel,
     ) -> Result<(Mesh, topology::Topology), Cancelled> {
-        let opts = MeshOptions {
-            octree: OctreeOptions {
-                max_level: level,
-                min_level: level,
-                t,
-                // Plain marching cubes at the level: the tracker sizes
-                // its meshes itself.
-                chord: None,
-                ..OctreeOptions::default()
-            },
-            smooth: 0,
-            domain: Some(domain),
-            // The tracker keeps features its own way (the sharp-feature
-            // constraint); its starting meshes are plain marching cubes.
-            creases: false,
-        };
+        let opts = robust_options(domain, level, t);
         let (mesh, report) = mesher::mesh_with_cancellable(self.f, domain, &opts, &|_| {}, cancel)?;
         Ok((mesh, report.topology))
     }
@@ -1217,6 +1202,26 @@ struct StepResult {
     failures: usize,
     /// Vertices left off the surface for a splice to cut out.
     spared: usize,
+}
+
+/// The robust mesher's options for the tracker's meshes over `domain` at
+/// time `t`: plain marching cubes on the uniform octree of `level`.
+pub(crate) fn robust_options(domain: Bounds, level: u8, t: f64) -> MeshOptions {
+    MeshOptions {
+        octree: OctreeOptions {
+            max_level: level,
+            min_level: level,
+            t,
+            // The tracker sizes its meshes itself.
+            chord: None,
+            ..OctreeOptions::default()
+        },
+        smooth: 0,
+        domain: Some(domain),
+        // The tracker keeps features its own way (the sharp-feature
+        // constraint); its starting meshes are plain marching cubes.
+        creases: false,
+    }
 }
 
 /// Components and the sorted genera: what "the same topology" compares.

@@ -190,7 +190,7 @@ fn append(out: &mut Mesh, m: &Mesh, keep: impl Fn(&[u32; 3]) -> bool) {
 /// back on itself and no strip can join it without a fold. (The vertices
 /// they alone used stay in the vertex list, unused.)
 fn trim_ears(tris: &mut Vec<[u32; 3]>) {
-    for _ in 0..EAR_ROUNDS {
+    for _ in 0..REPAIR_ROUNDS {
         let directed: rustc_hash::FxHashSet<(u32, u32)> = tris
             .iter()
             .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
@@ -208,8 +208,8 @@ fn trim_ears(tris: &mut Vec<[u32; 3]>) {
     }
 }
 
-/// Rounds of [`trim_ears`].
-const EAR_ROUNDS: usize = 3;
+/// Most rounds of [`trim_ears`] and of [`unfold`].
+const REPAIR_ROUNDS: usize = 3;
 
 /// The rims of a mesh whose triangles are consistently oriented: each a
 /// cycle of vertices along directed edges `a → b` used by one triangle
@@ -302,9 +302,10 @@ fn pair(
 /// Uselton 1977), where a triangle costs its cross edge's length plus a
 /// heavy penalty when it faces against its corners' normals. The pairs
 /// searched are those whose arc-length fractions differ by at most
-/// [`BAND`] (so rims of very different vertex counts stay in step, and
-/// the search is linear in the rims for a fixed band). Returns `false`
-/// (and adds nothing) when the band holds more than [`MAX_PAIRS`] pairs.
+/// [`BAND`] (so rims of very different vertex counts stay in step). The
+/// table holds every pair of rim positions, so time and memory are the
+/// product of the rims' lengths: returns `false` (and adds nothing) when
+/// it passes [`MAX_PAIRS`].
 /// The triangles use every rim edge reversed, as the closed result needs.
 fn zip(
     p: &[DVec3],
@@ -324,8 +325,7 @@ fn zip(
     let b: Vec<u32> = rim[j0..].iter().chain(&rim[..j0]).copied().collect();
     let (sa, sb) = (arc_fractions(p, &a), arc_fractions(p, &b));
     let (m, n) = (a.len(), b.len());
-    if (m + 1) * (n + 1) > MAX_PAIRS && (m + n) as f64 * BAND * (m.max(n) as f64) > MAX_PAIRS as f64
-    {
+    if (m + 1) * (n + 1) > MAX_PAIRS {
         return false;
     }
     let scale = sa.len().max(1) as f64;
@@ -405,7 +405,7 @@ fn facing(p: &[DVec3], normals: &[DVec3], t: [u32; 3]) -> f64 {
 /// time steps cannot avoid where a rim doubles back on itself.
 fn unfold(p: &[DVec3], normals: &[DVec3], tris: &mut [[u32; 3]], joined: usize) {
     let good = |t: [u32; 3]| facing(p, normals, t) > MIN_FACING;
-    for _ in 0..EAR_ROUNDS {
+    for _ in 0..REPAIR_ROUNDS {
         let mut edges: HashMap<(u32, u32), usize> = HashMap::default();
         for (i, t) in tris.iter().enumerate() {
             for k in 0..3 {
@@ -497,24 +497,12 @@ fn check(m: &Mesh, joined: usize) -> Result<Topology, Refused> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesher::{self, MeshOptions};
-    use crate::octree::OctreeOptions;
+    use crate::mesher;
     use crate::testing::surface;
 
     fn robust(src: &str, domain: Bounds, level: u8) -> Mesh {
-        let s = surface(src);
-        let opts = MeshOptions {
-            octree: OctreeOptions {
-                max_level: level,
-                min_level: level,
-                chord: None,
-                ..OctreeOptions::default()
-            },
-            smooth: 0,
-            domain: Some(domain),
-            creases: false,
-        };
-        mesher::mesh_with(&s, domain, &opts, &|_| {}).0
+        let opts = super::super::robust_options(domain, level, 0.0);
+        mesher::mesh_with(&surface(src), domain, &opts, &|_| {}).0
     }
 
     fn cube(lo: f64, hi: f64) -> Bounds {

@@ -50,13 +50,6 @@ pub enum Verdict {
     Unproved,
 }
 
-impl Verdict {
-    /// The topology was proved unchanged.
-    pub fn proved(&self) -> bool {
-        *self == Verdict::Proved
-    }
-}
-
 /// Counts from one [`certify`] call.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Report {
