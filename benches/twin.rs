@@ -24,7 +24,9 @@
 //!   includes the topology-change frame;
 //! - `twin/<anim>/<size>/scratch`: the robust mesher on the middle frame.
 //!
-//! Run: `RAYON_NUM_THREADS=1 cargo bench --bench twin` (and with 2).
+//! Run: `RAYON_NUM_THREADS=1 cargo bench --bench twin` (and with 2);
+//! `ISOC_TWIN_ONLY=50k` (or `merge`, `spin/10k`, …) runs only the cases
+//! whose id contains it.
 //! Figures are in `docs/twin.md`.
 
 use std::hint::black_box;
@@ -139,7 +141,7 @@ fn scratch_for(s: &Surface, t: f64, target: usize) -> (MeshOptions, usize) {
     let mut best = (scratch_options(8, 0.3, t), usize::MAX, f64::INFINITY);
     for level in 7u8..=10 {
         let mut most = 0;
-        for kmax in [1.0, 0.5, 0.3, 0.2, 0.15, 0.1] {
+        for kmax in [1.0, 0.5, 0.3, 0.2, 0.15, 0.1, 0.05] {
             let opts = scratch_options(level, kmax, t);
             let n = mesher::mesh(s, &opts, &|_| {}).0.triangles.len();
             most = most.max(n);
@@ -181,6 +183,10 @@ fn twin(c: &mut Criterion) {
     for a in &ANIMATIONS {
         let s = surface(a.file);
         for target in SIZES {
+            let id = format!("{}/{}k", a.name, target / 1000);
+            if std::env::var("ISOC_TWIN_ONLY").is_ok_and(|only| !id.contains(&only)) {
+                continue;
+            }
             let opts = options_for(&s, a, target);
             // Skip frame 0 (the tracker's construction relaxes there).
             let reps = &track(&s, a, &opts)[1..];
@@ -217,7 +223,6 @@ fn twin(c: &mut Criterion) {
                 frame / scratch_ms,
             );
 
-            let id = format!("{}/{}k", a.name, target / 1000);
             g.bench_function(format!("{id}/frame"), |b| {
                 let mut tr = Tracker::new(&s, a.t0, &opts).expect("tracker");
                 let mut k = 1;

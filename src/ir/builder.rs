@@ -157,11 +157,30 @@ impl Builder {
     /// code is removed. Used for programs that did not come from a builder
     /// (the text form, the fuzzer).
     pub fn rebuild(program: &Program) -> Program {
+        Builder::rebuild_with(program, |b, v| b.var(v))
+    }
+
+    /// `program` with the variable `var` fixed at `value`, rebuilt as by
+    /// [`Builder::rebuild`], so that whatever depends on `var` alone is
+    /// folded. Folding computes each op as the point evaluator does, so
+    /// the result's point values are the original's at `var = value`, bit
+    /// for bit up to the sign of zero.
+    pub fn substitute(program: &Program, var: Var, value: f64) -> Program {
+        Builder::rebuild_with(program, |b, v| {
+            if v == var {
+                b.constant(Const::exact(value))
+            } else {
+                b.var(v)
+            }
+        })
+    }
+
+    fn rebuild_with(program: &Program, mut var: impl FnMut(&mut Builder, Var) -> Value) -> Program {
         let mut b = Builder::new();
         let mut map: Vec<Value> = Vec::with_capacity(program.insts.len());
         for op in &program.insts {
             let v = match op.map_args(|a| map[a.index()]) {
-                Op::Var(v) => b.var(v),
+                Op::Var(v) => var(&mut b, v),
                 Op::Const(c) => b.constant(c),
                 Op::Unary(u, a) => b.unary(u, a),
                 Op::Binary(o, x, y) => b.binary(o, x, y),

@@ -12,9 +12,16 @@
 //! changes), the zero is bracketed by that one short step and found by
 //! [`super::bisect`] (the same bracket solver as the mesher's vertices), so
 //! the point lands on the sheet it was walking towards and never jumps to
-//! another one. The result is on the surface to machine precision: the last
-//! Newton step (or the bracket) is a few ulps of the coordinates. Every step costs one value-and-gradient
-//! evaluation ([`Evaluator::point_grad`]); each depends on the last, so the
+//! another one. A Newton step shorter than [`CONVERGED`] × `max_step` ends
+//! the walk at the point it leads to, unevaluated: Newton's error is
+//! quadratic where `f` is smooth, so that point is about `κ·step² ≤
+//! (κ·max_step)·10⁻¹²·max_step` off the surface (κ its curvature) — at
+//! rounding level wherever the steps resolve the curvature, `κ·max_step ≲
+//! 1` — and the gradient returned is the one at the step's start (`step`
+//! away). This saves the one or two evaluations that only confirm
+//! convergence. Otherwise the result is on the surface to machine
+//! precision: the last Newton step (or the bracket) is a few ulps of the
+//! coordinates. Every step costs one value-and-gradient evaluation ([`Evaluator::point_grad`]); each depends on the last, so the
 //! walk is sequential (callers run many walks in parallel).
 
 use glam::DVec3;
@@ -27,6 +34,10 @@ fn grad_at<E: Evaluator + ?Sized>(f: &E, t: f64, p: DVec3) -> (f64, DVec3) {
     let (v, g) = f.point_grad(at(p, t));
     (v, DVec3::from_array(g))
 }
+
+/// A Newton step this short, relative to `max_step`, is the last: see the
+/// module doc.
+pub const CONVERGED: f64 = 1e-6;
 
 /// A point on the surface and ∇f there.
 #[derive(Clone, Copy, Debug)]
@@ -58,6 +69,12 @@ pub(crate) fn newton<E: Evaluator + ?Sized>(
         }
         let mut step = g * (-fp / g2);
         let len = step.length();
+        if len <= CONVERGED * max_step {
+            return Some(OnSurface {
+                pos: p + step,
+                grad: g,
+            });
+        }
         if len > max_step {
             step *= max_step / len;
         }

@@ -15,8 +15,7 @@
 //!    interval arithmetic that no critical point crosses the surface
 //!    (beyond the paper, whose §5 leaves topology changes open). When the
 //!    proof fails in a few cells only, the robust mesher meshes a ball
-//!    around them at `t`, one level finer than the tracker's resolution,
-//!    and once the step below has brought the mechanical mesh to `t` that
+//!    around them at `t`, at the tracker's resolution, and once the step below has brought the mechanical mesh to `t` that
 //!    patch is spliced in ([`splice`]): if the spliced mesh's components
 //!    or genera differ from the mechanical mesh's, it is **re-initialised
 //!    locally** — the mechanical mesh becomes the spliced one (made from a
@@ -46,7 +45,9 @@
 //! 5. **remeshes** ([`remesh`], §2.5): splits, collapses, flips — last,
 //!    so that the meshes of a frame have their edges in `[e_min, e_max]·ê`
 //!    (it is the paper's "before the next quasi-static step");
-//! 6. **rebuilds the geometric mesh** ([`geometric`], §3).
+//! 6. **rebuilds the geometric mesh** ([`geometric`], §3), deciding
+//!    afresh only where the mechanical mesh changed shape since the last
+//!    frame and reprojecting the rest of the last frame's refinement.
 //!
 //! # Cancelling
 //!
@@ -69,7 +70,8 @@
 //! the whole domain within the frame (rare; it then takes as long as a
 //! first frame).
 //!
-//! Every vertex of both meshes is on the surface to machine precision;
+//! Every vertex of both meshes is on the surface to machine precision
+//! (where a Newton walk ends on a short step: [`crate::roots::walk`]);
 //! both meshes are closed, oriented 2-manifolds (outward = increasing f)
 //! whenever the surface is closed and strictly inside the domain.
 //!
@@ -81,7 +83,10 @@
 //! triangle centroids of the sharp-feature constraint are batches
 //! ([`crate::eval::sample::grads_at`]); the projections are sequential
 //! Newton walks ([`crate::roots::walk`]), one per vertex, run in parallel; remeshing
-//! evaluates one point at a time (see [`remesh`]).
+//! evaluates one point at a time (see [`remesh`]). The geometric mesh is
+//! refined with `f` compiled anew at the frame's `t` when that folds away
+//! a transcendental op or a tenth of the program (`Builder::substitute`:
+//! the same point values, one JIT compile a frame).
 
 pub mod error;
 pub(crate) mod fem;
@@ -101,6 +106,7 @@ use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::geometry::Bounds;
 use crate::interval::Interval;
+use crate::ir::{Builder, Op, Program, UnOp, Var};
 use crate::mesh::dynmesh::{DynMesh, EdgeKey, key};
 use crate::mesh::{Mesh, quality, topology};
 use crate::mesher::{self, MeshOptions};
@@ -294,6 +300,9 @@ pub struct Tracker<'s, E: Evaluator + ?Sized = Surface> {
     /// The mechanical mesh as handed out (compacted), rebuilt once a frame.
     mechanical: Mesh,
     geometric: Mesh,
+    /// The geometric refinement's memory of the last frame, by the
+    /// vertex slots of `mesh` (cleared when they are renumbered).
+    reuse: geometric::Reuse,
     cancel: Cancel,
 }
 
@@ -314,7 +323,8 @@ enum Watch {
     /// It changed: the mesh to restart from.
     Restart(Restart),
     /// Not proved in a few cells: the robust mesh of a box around them (at
-    /// `level + 1`), to settle after the step ([`Tracker::settle`]).
+    /// `level`, the tracker's resolution there), to settle after the step
+    /// ([`Tracker::settle`]).
     Patch { ball: Ball, level: u8, patch: Mesh },
 }
 
@@ -439,6 +449,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             t: t0,
             mechanical: Mesh::default(),
             geometric: Mesh::default(),
+            reuse: geometric::Reuse::default(),
             cancel: cancel.clone(),
         };
         let (mesh, topo) = tracker.robust(t0, 0, &tracker.cancel)?;
@@ -698,7 +709,15 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
 
         // 6. Geometric mesh.
         let t0 = Instant::now();
-        let (geo, gs) = geometric::refine(mech, self.f, t, self.opts.alpha_deg, self.opts.passes);
+        let ids: Vec<u32> = (0..self.mesh.pos.len() as u32)
+            .filter(|&i| self.mesh.vert_alive[i as usize])
+            .collect();
+        let (alpha, passes) = (self.opts.alpha_deg, self.opts.passes);
+        let reuse = &mut self.reuse;
+        let (geo, gs) = match frozen(self.f, t, self.domain) {
+            Some(g) => geometric::refine_tracked(mech, &ids, reuse, &g, t, alpha, passes),
+            None => geometric::refine_tracked(mech, &ids, reuse, self.f, t, alpha, passes),
+        };
         rep.geometric_splits = gs.splits;
         rep.geometric_budget_hit = gs.budget_hit;
         self.geometric = geo;
@@ -738,7 +757,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         };
         rep.topology_certified = false;
         if let Some((ball, level)) = self.local_region(&cells) {
-            let (patch, _) = self.robust_in(ball.cube(), level + 1, t, &self.cancel)?;
+            let (patch, _) = self.robust_in(ball.cube(), level, t, &self.cancel)?;
             return Ok(Watch::Patch { ball, level, patch });
         }
         Ok(match self.global(t, rep, &self.cancel)? {
@@ -834,7 +853,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
                     let (patch, _) = self.robust_in(ball.cube(), level - extra, t, &never).ok()?;
                     spliced(&patch).filter(|(_, c)| topo_key(c) == now)
                 };
-                let (mesh, topo) = coarser(1).or_else(|| coarser(0)).unwrap_or((fine, topo));
+                let (mesh, topo) = coarser(1).unwrap_or((fine, topo));
                 self.restart(&mesh, topo, t, SPLICE_ROUNDS, &never)
                     .map(Some)
             }
@@ -920,6 +939,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             .map(|(i, _)| self.inverted.get(i).copied().unwrap_or(false))
             .collect();
         let remap = self.mesh.compact();
+        self.reuse = geometric::Reuse::default();
         self.inverted = alive_tris;
         let map = |e: EdgeKey| {
             let (a, b) = (remap[e.0 as usize], remap[e.1 as usize]);
@@ -1229,4 +1249,25 @@ fn topo_key(t: &topology::Topology) -> (usize, Vec<Option<i64>>) {
     let mut g = t.genus.clone();
     g.sort();
     (t.components, g)
+}
+
+/// `f` at the frame's time `t`, compiled with `t` fixed
+/// ([`Builder::substitute`]: the same point values), when that
+/// saves a transcendental op or a tenth of the program at every point;
+/// `None` when it would not (or `f` has no program, or no `t`).
+fn frozen<E: Evaluator + ?Sized>(f: &E, t: f64, domain: Bounds) -> Option<Surface> {
+    let p = f.program().filter(|p| p.uses_var(Var::T))?;
+    let q = Builder::substitute(p, Var::T, t);
+    let heavy = |p: &Program| {
+        p.insts
+            .iter()
+            .filter(|op| {
+                matches!(op, Op::Unary(u, _) if !matches!(u, UnOp::Neg | UnOp::Abs | UnOp::Square))
+            })
+            .count()
+    };
+    let saves = heavy(&q) < heavy(p) || 10 * q.len() <= 9 * p.len();
+    saves
+        .then(|| Surface::from_program("", q, domain, Vec::new()).ok())
+        .flatten()
 }

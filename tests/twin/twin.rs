@@ -10,7 +10,7 @@ use glam::DVec3;
 use isoc::mesh::Mesh;
 use isoc::mesh::topology::analyze;
 use isoc::twin::remesh::Held;
-use isoc::twin::{FrameReport, Tracker, TwinOptions};
+use isoc::twin::{FrameReport, Tracker, TwinOptions, geometric};
 use isoc::{CompileOptions, Surface};
 
 use crate::support::surface;
@@ -226,6 +226,56 @@ fn geometric_mesh_is_finer_where_curvature_is_high() {
         "geometric: {gt} per unit area at the tips, {gf} on the flanks"
     );
     assert!(geo.triangles.len() > mech.triangles.len());
+}
+
+#[test]
+fn the_tracked_geometric_mesh_follows_the_curvature_like_a_fresh_one() {
+    // Each frame's geometric mesh reuses the last frame's refinement where
+    // the mechanical mesh kept its shape; against a refinement decided
+    // afresh on the same mechanical mesh, it has about as many triangles
+    // and no more edges turning by more than 1.5 α_r than the fresh one
+    // has turning by more than α_r.
+    let s = corpus("ellipsoid_spin");
+    let opts = TwinOptions {
+        alpha_deg: 6.0,
+        ..TwinOptions::default()
+    };
+    let turning = |m: &Mesh, deg: f64| {
+        let c = deg.to_radians().cos();
+        let mut edges = std::collections::HashSet::new();
+        for t in &m.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                edges.insert((a.min(b), a.max(b)));
+            }
+        }
+        let over = edges
+            .iter()
+            .filter(|&&(a, b)| m.normals[a as usize].dot(m.normals[b as usize]) < c)
+            .count();
+        (over, edges.len())
+    };
+    let mut tr = Tracker::new(&s, 0.0, &opts).expect("tracker");
+    for k in 0..16 {
+        let t = k as f64 * 0.03;
+        let rep = tr.advance(t).expect("frame");
+        let (fresh, _) = geometric::refine(tr.mechanical(), &s, t, opts.alpha_deg, opts.passes);
+        let (geo, n) = (tr.geometric(), fresh.triangles.len() as f64);
+        let ratio = geo.triangles.len() as f64 / n;
+        assert!(
+            (0.9..1.25).contains(&ratio),
+            "frame {k}: {ratio} × the fresh triangles"
+        );
+        // The documented bound, whatever the tolerance is set to.
+        assert!(geometric::TURN_TOLERANCE <= 0.5);
+        let (over, edges) = turning(geo, 1.5 * opts.alpha_deg);
+        let (fresh_over, _) = turning(&fresh, opts.alpha_deg);
+        assert!(
+            over <= fresh_over + edges / 1000,
+            "frame {k}: {over} of {edges} edges turn beyond 1.5 α_r, {fresh_over} beyond α_r afresh"
+        );
+        check_frame(&s, &tr, &rep, k, 1, 0);
+    }
 }
 
 #[test]
