@@ -48,6 +48,16 @@ impl Cancel {
     }
 }
 
+/// Runs `work` with a token nobody else holds: it cannot be cancelled, so
+/// the result is `work`'s value (the uncancellable form of a
+/// `…_cancellable` function).
+pub fn uncancelled<T>(work: impl FnOnce(&Cancel) -> Result<T, Cancelled>) -> T {
+    match work(&Cancel::new()) {
+        Ok(value) => value,
+        Err(Cancelled) => unreachable!("a token nobody holds is never cancelled"),
+    }
+}
+
 /// The work was cancelled through its [`Cancel`] token; nothing was
 /// produced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

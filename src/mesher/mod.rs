@@ -24,7 +24,7 @@ pub mod smooth;
 pub mod stitch;
 pub mod weld;
 
-use crate::cancel::{Cancel, Cancelled};
+use crate::cancel::{Cancel, Cancelled, uncancelled};
 use crate::eval::Evaluator;
 use crate::geometry::Bounds;
 use crate::mesh::{Mesh, quality, topology};
@@ -193,10 +193,7 @@ pub fn mesh_with<E: Evaluator + ?Sized>(
     opts: &MeshOptions,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> (Mesh, MeshReport) {
-    match mesh_with_cancellable(f, domain, opts, progress, &Cancel::new()) {
-        Ok(done) => done,
-        Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
-    }
+    uncancelled(|never| mesh_with_cancellable(f, domain, opts, progress, never))
 }
 
 /// [`mesh_with`] that stops with [`Cancelled`] soon after `cancel` is
@@ -386,11 +383,7 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
     tolerance: f64,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> (Mesh, MeshReport, ToleranceReport) {
-    let never = Cancel::new();
-    match mesh_to_tolerance_cancellable(f, domain, opts, tolerance, progress, &never) {
-        Ok(result) => result,
-        Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
-    }
+    uncancelled(|never| mesh_to_tolerance_cancellable(f, domain, opts, tolerance, progress, never))
 }
 
 /// [`mesh_to_tolerance`] that stops with [`Cancelled`] soon after `cancel`

@@ -56,7 +56,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::flip::Flips;
-use crate::cancel::{Cancel, Cancelled};
+use crate::cancel::{Cancel, Cancelled, uncancelled};
 use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::mesh::quality::{aspect, aspect_ratio};
@@ -205,10 +205,7 @@ fn colour_classes(mesh: &Mesh, star: &Star) -> Vec<Vec<u32>> {
 /// Runs `passes` smoothing passes on the surface `f(·, t) = 0`; returns how
 /// many moves were accepted.
 pub fn smooth<E: Evaluator + ?Sized>(mesh: &mut Mesh, f: &E, t: f64, passes: usize) -> usize {
-    match smooth_keeping(mesh, f, t, passes, &[], &Cancel::new()) {
-        Ok(moves) => moves,
-        Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
-    }
+    uncancelled(|never| smooth_keeping(mesh, f, t, passes, &[], never))
 }
 
 /// [`smooth`], keeping the vertices flagged in `keep` (crease points,

@@ -83,7 +83,7 @@ use rayon::prelude::*;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::cancel::{Cancel, Cancelled};
+use crate::cancel::{Cancel, Cancelled, uncancelled};
 use crate::eval::{Evaluator, Reference, WHOLE, WHOLE_GRAD, prune};
 use crate::geometry::Bounds;
 use crate::interval::Interval;
@@ -1161,10 +1161,7 @@ impl Octree {
         refine: &Refine,
         progress: &(dyn Fn(u8, usize) + Sync),
     ) -> Octree {
-        match Octree::build_cancellable(f, domain, opts, refine, progress, &Cancel::new()) {
-            Ok(tree) => tree,
-            Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
-        }
+        uncancelled(|never| Octree::build_cancellable(f, domain, opts, refine, progress, never))
     }
 
     /// [`Octree::build_refining`] that stops with [`Cancelled`] soon after

@@ -101,7 +101,7 @@ use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::cancel::{Cancel, Cancelled};
+use crate::cancel::{Cancel, Cancelled, uncancelled};
 use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::geometry::Bounds;
@@ -586,14 +586,11 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
     /// Restarts from the robust mesh at `t` in a frame past its last
     /// checkpoint (it runs to its end).
     fn restart_to_end(&mut self, t: f64) {
-        let never = Cancel::new();
-        let restarted = self
-            .robust(t, 0, &never)
-            .and_then(|(mesh, topo)| self.restart(&mesh, topo, t, RESTART_ROUNDS, &never));
-        match restarted {
-            Ok(r) => self.install(r),
-            Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
-        }
+        let restarted = uncancelled(|never| {
+            let (mesh, topo) = self.robust(t, 0, never)?;
+            self.restart(&mesh, topo, t, RESTART_ROUNDS, never)
+        });
+        self.install(restarted);
     }
 
     fn remesh_params(&self, sweeps: usize) -> remesh::Params {
@@ -683,16 +680,17 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         // the paper's "before the quasi-static integration step" (§2.5).
         let params = self.remesh_params(4);
         self.edges.new_frozen.clear();
-        let counts = remesh::remesh(
-            &mut self.mesh,
-            self.f,
-            t,
-            &params,
-            &mut self.edges,
-            &mut self.inverted,
-            &Cancel::new(),
-        )
-        .unwrap_or_else(|Cancelled| unreachable!("a fresh token is never cancelled"));
+        let counts = uncancelled(|never| {
+            remesh::remesh(
+                &mut self.mesh,
+                self.f,
+                t,
+                &params,
+                &mut self.edges,
+                &mut self.inverted,
+                never,
+            )
+        });
         rep.splits = counts.splits;
         rep.collapses = counts.collapses;
         rep.flips = counts.flips;
@@ -822,7 +820,6 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
     ) {
         let mesh = self.mesh.to_mesh();
         let spliced = |patch: &Mesh| splice::splice(&mesh, patch, &ball, self.edge).ok();
-        let never = Cancel::new();
         let found = match spliced(patch) {
             None if spared => {
                 rep.reinitialized = Some(
@@ -833,14 +830,15 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
                 self.restart_to_end(t);
                 return;
             }
-            None => self.global(t, rep, &never),
+            None => uncancelled(|never| self.global(t, rep, never)),
             Some((fine, topo)) if topo_key(&topo) == self.topo => {
                 if !spared {
                     return;
                 }
                 rep.local_remesh = Some(ball.into());
-                self.restart(&fine, topo, t, SPLICE_ROUNDS, &never)
-                    .map(Some)
+                Some(uncancelled(|never| {
+                    self.restart(&fine, topo, t, SPLICE_ROUNDS, never)
+                }))
             }
             Some((fine, topo)) => {
                 let now = topo_key(&topo);
@@ -849,19 +847,17 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
                     self.topo.0, self.topo.1, now.0, now.1
                 ));
                 rep.local_remesh = Some(ball.into());
-                let coarser = |extra: u8| {
-                    let (patch, _) = self.robust_in(ball.cube(), level - extra, t, &never).ok()?;
-                    spliced(&patch).filter(|(_, c)| topo_key(c) == now)
-                };
-                let (mesh, topo) = coarser(1).unwrap_or((fine, topo));
-                self.restart(&mesh, topo, t, SPLICE_ROUNDS, &never)
-                    .map(Some)
+                Some(uncancelled(|never| {
+                    let coarser = self.robust_in(ball.cube(), level - 1, t, never)?.0;
+                    let (mesh, topo) = spliced(&coarser)
+                        .filter(|(_, c)| topo_key(c) == now)
+                        .unwrap_or((fine, topo));
+                    self.restart(&mesh, topo, t, SPLICE_ROUNDS, never)
+                }))
             }
         };
-        match found {
-            Ok(Some(r)) => self.install(r),
-            Ok(None) => {}
-            Err(Cancelled) => unreachable!("a fresh token is never cancelled"),
+        if let Some(r) = found {
+            self.install(r);
         }
     }
 

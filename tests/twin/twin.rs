@@ -267,7 +267,7 @@ fn the_tracked_geometric_mesh_follows_the_curvature_like_a_fresh_one() {
             "frame {k}: {ratio} × the fresh triangles"
         );
         // The documented bound, whatever the tolerance is set to.
-        assert!(geometric::TURN_TOLERANCE <= 0.5);
+        const { assert!(geometric::TURN_TOLERANCE <= 0.5) };
         let (over, edges) = turning(geo, 1.5 * opts.alpha_deg);
         let (fresh_over, _) = turning(&fresh, opts.alpha_deg);
         assert!(
