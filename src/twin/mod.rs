@@ -83,10 +83,11 @@
 //! triangle centroids of the sharp-feature constraint are batches
 //! ([`crate::eval::sample::grads_at`]); the projections are sequential
 //! Newton walks ([`crate::roots::walk`]), one per vertex, run in parallel; remeshing
-//! evaluates one point at a time (see [`remesh`]). The geometric mesh is
-//! refined with `f` compiled anew at the frame's `t` when that folds away
-//! a transcendental op or a tenth of the program (`Builder::substitute`:
-//! the same point values, one JIT compile a frame).
+//! evaluates one point at a time (see [`remesh`]). The step, projection,
+//! remeshing and geometric mesh of a frame evaluate points with `f`
+//! compiled anew at the frame's `t` when that folds away a transcendental
+//! op or a tenth of the program (`Builder::substitute`: the same point
+//! values, one JIT compile a frame); intervals always come from `f`.
 
 pub mod error;
 pub(crate) mod fem;
@@ -636,15 +637,16 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         // 2–5. Mechanical mesh. Vertices that a pending splice cuts out
         // need not reach the surface.
         let t0 = Instant::now();
+        let fx = AtT::new(self.f, t, self.domain);
         let spare = patch.as_ref().map(|(ball, _, _)| *ball);
-        let mut step = self.step(t, spare.as_ref());
+        let mut step = self.step(&fx, t, spare.as_ref());
         if step.failures > 0 {
             rep.reinitialized = Some(format!(
                 "tracking lost: {} vertices could not be projected onto the surface",
                 step.failures
             ));
             self.restart_to_end(t);
-            step = self.step(t, None);
+            step = self.step(&fx, t, None);
             if step.failures > 0 {
                 // Keep the restarted mesh itself: it is on the surface.
                 self.restart_to_end(t);
@@ -661,7 +663,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             if left == 0 {
                 break;
             }
-            let s = self.step(t, spare.as_ref());
+            let s = self.step(&fx, t, spare.as_ref());
             rep.cg_iterations += s.cg_iterations;
             if s.failures > 0 {
                 break;
@@ -683,7 +685,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         let counts = uncancelled(|never| {
             remesh::remesh(
                 &mut self.mesh,
-                self.f,
+                &fx,
                 t,
                 &params,
                 &mut self.edges,
@@ -711,11 +713,8 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             .filter(|&i| self.mesh.vert_alive[i as usize])
             .collect();
         let (alpha, passes) = (self.opts.alpha_deg, self.opts.passes);
-        let reuse = &mut self.reuse;
-        let (geo, gs) = match frozen(self.f, t, self.domain) {
-            Some(g) => geometric::refine_tracked(mech, &ids, reuse, &g, t, alpha, passes),
-            None => geometric::refine_tracked(mech, &ids, reuse, self.f, t, alpha, passes),
-        };
+        let (geo, gs) =
+            geometric::refine_tracked(mech, &ids, &mut self.reuse, &fx, t, alpha, passes);
         rep.geometric_splits = gs.splits;
         rep.geometric_budget_hit = gs.budget_hit;
         self.geometric = geo;
@@ -965,14 +964,14 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
     /// cannot be projected is a failure, unless it lies deep enough in
     /// `spare` for a splice to cut it out (it then stays where the step
     /// put it; [`StepResult::spared`] counts it).
-    fn step(&mut self, t: f64, spare: Option<&Ball>) -> StepResult {
+    fn step<G: Evaluator + ?Sized>(&mut self, f: &G, t: f64, spare: Option<&Ball>) -> StepResult {
         let n = self.mesh.pos.len();
         // Gradients at the current positions (one batch over the live
         // vertices).
         let alive: Vec<usize> = (0..n).filter(|&i| self.mesh.vert_alive[i]).collect();
         let at: Vec<DVec3> = alive.iter().map(|&i| self.mesh.pos[i]).collect();
         let mut grads = vec![DVec3::ZERO; n];
-        for (&i, (_, g)) in alive.iter().zip(grads_at(self.f, t, &at)) {
+        for (&i, (_, g)) in alive.iter().zip(grads_at(f, t, &at)) {
             grads[i] = g;
         }
         self.mesh.grad = grads;
@@ -984,12 +983,12 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
             .iter()
             .map(|g| g.normalize_or_zero())
             .collect();
-        let f = frames.forces(&self.stiff, n);
-        let b: Vec<DVec3> = f.iter().map(|f| *f * self.opts.dt).collect();
+        let forces = frames.forces(&self.stiff, n);
+        let b: Vec<DVec3> = forces.iter().map(|x| *x * self.opts.dt).collect();
         let (mut dx, iters) = self.solve(&frames, &normals, &b);
         if self.opts.sharp {
             for _ in 0..SHARP_ITERATIONS {
-                self.sharp_constraint(t, &mut dx);
+                self.sharp_constraint(f, t, &mut dx);
             }
         }
 
@@ -1002,7 +1001,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
                     return None;
                 }
                 let p = self.mesh.pos[i] + dx[i];
-                crate::roots::walk::newton(self.f, t, p, reach, self.edge)
+                crate::roots::walk::newton(f, t, p, reach, self.edge)
             })
             .collect();
         let (mut failures, mut spared) = (0, 0);
@@ -1104,7 +1103,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
     /// the gradient at `p` in place of `m_τ`, which would only move `p`
     /// along its own normal and be undone by the projection; Ohtake et
     /// al.'s formula, which the paper cites for it, uses the centroids'.)
-    fn sharp_constraint(&self, t: f64, dx: &mut [DVec3]) {
+    fn sharp_constraint<G: Evaluator + ?Sized>(&self, f: &G, t: f64, dx: &mut [DVec3]) {
         let m = &self.mesh;
         let p: Vec<DVec3> = m.pos.iter().zip(dx.iter()).map(|(a, b)| *a + *b).collect();
         // ∇f at the live triangles' centroids, one batch.
@@ -1115,7 +1114,7 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         };
         let at: Vec<DVec3> = live.iter().map(|&i| centroid(i)).collect();
         let mut planes = vec![(DVec3::ZERO, DVec3::ZERO, 0.0); m.tris.len()];
-        for ((&i, c), (_, g)) in live.iter().zip(at.iter()).zip(grads_at(self.f, t, &at)) {
+        for ((&i, c), (_, g)) in live.iter().zip(at.iter()).zip(grads_at(f, t, &at)) {
             let q = m.tris[i].map(|v| p[v as usize]);
             let n = g.normalize_or_zero();
             let area = 0.5 * (q[1] - q[0]).cross(q[2] - q[0]).length();
@@ -1247,23 +1246,75 @@ fn topo_key(t: &topology::Topology) -> (usize, Vec<Option<i64>>) {
     (t.components, g)
 }
 
-/// `f` at the frame's time `t`, compiled with `t` fixed
-/// ([`Builder::substitute`]: the same point values), when that
-/// saves a transcendental op or a tenth of the program at every point;
-/// `None` when it would not (or `f` has no program, or no `t`).
-fn frozen<E: Evaluator + ?Sized>(f: &E, t: f64, domain: Bounds) -> Option<Surface> {
-    let p = f.program().filter(|p| p.uses_var(Var::T))?;
-    let q = Builder::substitute(p, Var::T, t);
-    let heavy = |p: &Program| {
-        p.insts
-            .iter()
-            .filter(|op| {
-                matches!(op, Op::Unary(u, _) if !matches!(u, UnOp::Neg | UnOp::Abs | UnOp::Square))
-            })
-            .count()
-    };
-    let saves = heavy(&q) < heavy(p) || 10 * q.len() <= 9 * p.len();
-    saves
-        .then(|| Surface::from_program("", q, domain, Vec::new()).ok())
-        .flatten()
+/// The evaluator of one frame: `f`, whose point methods go to `f`
+/// compiled anew with `t` fixed at the frame's time ([`Builder::substitute`]:
+/// the same point values) when that saves a transcendental op or a tenth
+/// of the program at every point — worth one JIT compile a frame. Interval
+/// methods always go to `f` itself (they may be asked over a range of t).
+struct AtT<'s, E: ?Sized> {
+    f: &'s E,
+    frozen: Option<Surface>,
+}
+
+impl<'s, E: Evaluator + ?Sized> AtT<'s, E> {
+    fn new(f: &'s E, t: f64, domain: Bounds) -> AtT<'s, E> {
+        let frozen = f.program().filter(|p| p.uses_var(Var::T)).and_then(|p| {
+            let q = Builder::substitute(p, Var::T, t);
+            let heavy = |p: &Program| {
+                p.insts
+                    .iter()
+                    .filter(|op| {
+                        matches!(op, Op::Unary(u, _) if !matches!(u, UnOp::Neg | UnOp::Abs | UnOp::Square))
+                    })
+                    .count()
+            };
+            let saves = heavy(&q) < heavy(p) || 10 * q.len() <= 9 * p.len();
+            saves
+                .then(|| Surface::from_program("", q, domain, Vec::new()).ok())
+                .flatten()
+        });
+        AtT { f, frozen }
+    }
+}
+
+impl<E: Evaluator + ?Sized> Evaluator for AtT<'_, E> {
+    fn point(&self, p: [f64; 4]) -> f64 {
+        match &self.frozen {
+            Some(g) => g.point(p),
+            None => self.f.point(p),
+        }
+    }
+    fn point_grad(&self, p: [f64; 4]) -> (f64, [f64; 3]) {
+        match &self.frozen {
+            Some(g) => g.point_grad(p),
+            None => self.f.point_grad(p),
+        }
+    }
+    fn point_batch(&self, xs: &[f64], ys: &[f64], zs: &[f64], t: f64, out: &mut [f64]) {
+        match &self.frozen {
+            Some(g) => Evaluator::point_batch(g, xs, ys, zs, t, out),
+            None => self.f.point_batch(xs, ys, zs, t, out),
+        }
+    }
+    fn point_grad_batch(&self, pts: &[[f64; 3]], t: f64, out: &mut [(f64, [f64; 3])]) {
+        match &self.frozen {
+            Some(g) => Evaluator::point_grad_batch(g, pts, t, out),
+            None => self.f.point_grad_batch(pts, t, out),
+        }
+    }
+    fn interval(&self, b: [Interval; 4]) -> crate::interval::DecInterval {
+        self.f.interval(b)
+    }
+    fn grad(&self, b: [Interval; 4]) -> crate::eval::GradEval {
+        self.f.grad(b)
+    }
+    fn program(&self) -> Option<&Program> {
+        self.f.program()
+    }
+    fn interval_batch(&self, boxes: &[[Interval; 4]], out: &mut [crate::interval::DecInterval]) {
+        self.f.interval_batch(boxes, out)
+    }
+    fn grad_batch(&self, boxes: &[[Interval; 4]], out: &mut [crate::eval::GradEval]) {
+        self.f.grad_batch(boxes, out)
+    }
 }

@@ -47,26 +47,11 @@ mod tris;
 
 pub(crate) use reuse::Reuse;
 pub use reuse::{SHAPE_TOLERANCE, TURN_TOLERANCE};
+pub use tris::{RefineStats, TRIANGLE_BUDGET};
 
 use crate::eval::Evaluator;
 use crate::mesh::Mesh;
-use tris::{Limits, Tris};
-
-/// What [`refine`] did.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct RefineStats {
-    /// Passes that split at least one edge.
-    pub passes: usize,
-    /// Edges split (midpoints inserted), over all passes.
-    pub splits: usize,
-    /// Refinement stopped at the triangle budget rather than for lack of
-    /// marked edges or passes.
-    pub budget_hit: bool,
-}
-
-/// The geometric mesh never exceeds this many times the mechanical mesh's
-/// triangles.
-pub(crate) const TRIANGLE_BUDGET: usize = 64;
+use tris::{Limits, Tris, budget};
 
 /// Refines `mech` (whose normals are the unit gradients at its vertices)
 /// on the surface `f(·, t) = 0`; see the module doc.
@@ -118,11 +103,6 @@ pub(crate) fn refine_tracked<E: Evaluator + ?Sized>(
     reuse
         .refine(mech, ids, f, t, alpha_deg, passes)
         .unwrap_or_else(|| refine(mech, f, t, alpha_deg, passes))
-}
-
-/// Most triangles of `mech`'s geometric mesh.
-fn budget(mech: &Mesh) -> usize {
-    mech.triangles.len().saturating_mul(TRIANGLE_BUDGET)
 }
 
 #[cfg(test)]

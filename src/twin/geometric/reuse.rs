@@ -3,8 +3,9 @@
 use rayon::prelude::*;
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
-use super::tris::{Limits, Name, TRIANGLE, Tris, VERTEX, arc_midpoint, inverted, name};
-use super::{RefineStats, budget};
+use super::tris::{
+    Limits, Name, RefineStats, TRIANGLE, Tris, VERTEX, arc_midpoint, budget, inverted, name,
+};
 use crate::eval::Evaluator;
 use crate::mesh::Mesh;
 use crate::roots::walk::newton;
@@ -39,20 +40,23 @@ const MAX_DEPTH: usize = 16;
 pub(crate) struct Reuse {
     /// Per mechanical triangle (by name), how its refinement was decided.
     records: HashMap<Name, Record>,
-    /// The geometric triangles, by their corners' names; a record's are
-    /// contiguous.
-    tris: Vec<[Name; 3]>,
+    /// The geometric triangles, each corner an index into its record's
+    /// run of `verts`; a record's are contiguous.
+    tris: Vec<[u32; 3]>,
+    /// The records' vertices by name, each record's once, contiguous.
+    verts: Vec<Name>,
     /// Per midpoint (by name), its edge's ends.
     parents: HashMap<Name, (Name, Name)>,
 }
 
-/// A mechanical triangle's shape when its refinement was decided, and its
-/// geometric triangles (`first..end` of [`Reuse::tris`]).
-#[derive(Clone, Copy, Debug)]
+/// A mechanical triangle's shape when its refinement was decided, its
+/// geometric triangles (`tris` of [`Reuse::tris`]) and their vertices
+/// (`verts` of [`Reuse::verts`]).
+#[derive(Clone, Debug)]
 struct Record {
     shape: Shape,
-    first: u32,
-    end: u32,
+    tris: std::ops::Range<u32>,
+    verts: std::ops::Range<u32>,
 }
 
 /// A triangle's edge lengths and the angles between its corner normals,
@@ -64,7 +68,7 @@ type Shape = [f64; 6];
 struct Decided {
     name: Name,
     shape: Shape,
-    reused: Option<(u32, u32)>,
+    reused: Option<Record>,
 }
 
 impl Reuse {
@@ -81,20 +85,18 @@ impl Reuse {
         passes: usize,
     ) -> Option<(Mesh, RefineStats)> {
         let decided = self.classify(mech, ids, alpha_deg);
-        let mut b = Builder::new(mech, ids);
-        let (mut tris, mut origin) = (Vec::new(), Vec::new());
+        let mut b = Builder::new(mech, ids, self.parents.len());
+        let (mut tris, mut origin, mut local) = (Vec::new(), Vec::new(), Vec::new());
         for (i, d) in decided.iter().enumerate() {
-            let Some((first, end)) = d.reused else {
+            let Some(r) = &d.reused else {
                 continue;
             };
-            for g in &self.tris[first as usize..end as usize] {
-                let [a, c, e] = *g;
-                let tri = [
-                    b.resolve(a, &self.parents, 0)?,
-                    b.resolve(c, &self.parents, 0)?,
-                    b.resolve(e, &self.parents, 0)?,
-                ];
-                tris.push(tri);
+            local.clear();
+            for &m in &self.verts[r.verts.start as usize..r.verts.end as usize] {
+                local.push(b.resolve(m, &self.parents, 0)?);
+            }
+            for g in &self.tris[r.tris.start as usize..r.tris.end as usize] {
+                tris.push(g.map(|k| local[k as usize]));
                 origin.push(i as u32);
             }
         }
@@ -155,7 +157,7 @@ impl Reuse {
                         Decided {
                             name,
                             shape: r.shape,
-                            reused: Some((r.first, r.end)),
+                            reused: Some(r.clone()),
                         }
                     }
                     _ => Decided {
@@ -179,31 +181,48 @@ impl Reuse {
         part: &Tris,
         mechanical: usize,
     ) {
-        let mut start = vec![0u32; decided.len() + 1];
+        // The triangles grouped by origin (a counting sort).
+        let mut start = vec![0usize; decided.len() + 1];
         for &o in origin {
             start[o as usize + 1] += 1;
         }
         for i in 0..decided.len() {
             start[i + 1] += start[i];
         }
+        let mut order = vec![0usize; tris.len()];
         let mut fill = start.clone();
-        self.tris = vec![[0; 3]; tris.len()];
-        for (g, &o) in tris.iter().zip(origin) {
-            self.tris[fill[o as usize] as usize] = g.map(|v| part.names[v as usize]);
+        for (g, &o) in origin.iter().enumerate() {
+            order[fill[o as usize]] = g;
             fill[o as usize] += 1;
         }
-        self.records = decided
-            .iter()
-            .enumerate()
-            .map(|(i, d)| {
-                let r = Record {
-                    shape: d.shape,
-                    first: start[i],
-                    end: start[i + 1],
-                };
-                (d.name, r)
-            })
-            .collect();
+        // Each record's vertices once, in order of first use.
+        let mut stamp = vec![usize::MAX; part.names.len()];
+        let mut local = vec![0u32; part.names.len()];
+        self.tris.clear();
+        self.verts.clear();
+        let mut records = HashMap::with_capacity_and_hasher(decided.len(), Default::default());
+        for (i, d) in decided.iter().enumerate() {
+            let (first, vfirst) = (self.tris.len() as u32, self.verts.len());
+            for &g in &order[start[i]..start[i + 1]] {
+                let tri = tris[g].map(|v| {
+                    let v = v as usize;
+                    if stamp[v] != i {
+                        stamp[v] = i;
+                        local[v] = (self.verts.len() - vfirst) as u32;
+                        self.verts.push(part.names[v]);
+                    }
+                    local[v]
+                });
+                self.tris.push(tri);
+            }
+            let r = Record {
+                shape: d.shape,
+                tris: first..self.tris.len() as u32,
+                verts: vfirst as u32..self.verts.len() as u32,
+            };
+            records.insert(d.name, r);
+        }
+        self.records = records;
         self.parents = (mechanical..part.names.len())
             .map(|v| (part.names[v], part.parents[v]))
             .collect();
@@ -243,9 +262,13 @@ struct Builder {
 }
 
 impl Builder {
-    fn new(mech: &Mesh, ids: &[u32]) -> Builder {
+    /// The mechanical vertices of `mech` (slots `ids`), with room for
+    /// `midpoints` more.
+    fn new(mech: &Mesh, ids: &[u32], midpoints: usize) -> Builder {
         let names: Vec<Name> = ids.iter().map(|&i| name(VERTEX, i.into(), 0)).collect();
         let n = names.len();
+        let mut index = HashMap::with_capacity_and_hasher(n + midpoints, Default::default());
+        index.extend(names.iter().enumerate().map(|(i, &m)| (m, i as u32)));
         Builder {
             mesh: Mesh {
                 positions: mech.positions.clone(),
@@ -253,11 +276,7 @@ impl Builder {
                 ambiguous: vec![false; n],
                 triangles: Vec::new(),
             },
-            index: names
-                .iter()
-                .enumerate()
-                .map(|(i, &m)| (m, i as u32))
-                .collect(),
+            index,
             names,
             parents: vec![(0, 0); n],
             depth: vec![0; n],

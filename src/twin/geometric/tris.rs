@@ -13,11 +13,31 @@ use glam::DVec3;
 use rayon::prelude::*;
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
-use super::RefineStats;
 use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::mesh::Mesh;
 use crate::roots::walk::{OnSurface, newton};
+
+/// What a refinement did ([`super::refine`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RefineStats {
+    /// Passes that split at least one edge.
+    pub passes: usize,
+    /// Edges split (midpoints inserted), over all passes.
+    pub splits: usize,
+    /// Refinement stopped at the triangle budget rather than for lack of
+    /// marked edges or passes.
+    pub budget_hit: bool,
+}
+
+/// The geometric mesh never exceeds this many times the mechanical mesh's
+/// triangles.
+pub const TRIANGLE_BUDGET: usize = 64;
+
+/// Most triangles of `mech`'s geometric mesh.
+pub(super) fn budget(mech: &Mesh) -> usize {
+    mech.triangles.len().saturating_mul(TRIANGLE_BUDGET)
+}
 
 /// A twin on the mesh's boundary (split like any other edge).
 pub(super) const BOUNDARY: u32 = u32::MAX;
