@@ -47,6 +47,18 @@ fn inverted(s: &Surface, mesh: &Mesh, t: f64) -> usize {
         .count()
 }
 
+/// The mesh's edges, each once as (smaller, larger) vertex index.
+fn edges(mesh: &Mesh) -> std::collections::HashSet<(u32, u32)> {
+    let mut out = std::collections::HashSet::new();
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            out.insert((a.min(b), a.max(b)));
+        }
+    }
+    out
+}
+
 /// The checks every frame must pass (see the module doc).
 fn check_frame(s: &Surface, tr: &Tracker, rep: &FrameReport, k: usize, comps: usize, genus: i64) {
     let t = rep.t;
@@ -157,13 +169,7 @@ fn mechanical_quality_and_edge_lengths() {
                 .find(|&&(p, q, _)| (p == a && q == b) || (p == b && q == a))
                 .map(|h| h.2)
         };
-        let mut edges = std::collections::HashSet::new();
-        for t in &mesh.triangles {
-            for i in 0..3 {
-                let (a, b) = (t[i], t[(i + 1) % 3]);
-                edges.insert((a.min(b), a.max(b)));
-            }
-        }
+        let edges = edges(mesh);
         let mut unfrozen = Vec::new();
         for &(a, b) in &edges {
             let (p, q) = (mesh.positions[a as usize], mesh.positions[b as usize]);
@@ -242,13 +248,7 @@ fn the_tracked_geometric_mesh_follows_the_curvature_like_a_fresh_one() {
     };
     let turning = |m: &Mesh, deg: f64| {
         let c = deg.to_radians().cos();
-        let mut edges = std::collections::HashSet::new();
-        for t in &m.triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                edges.insert((a.min(b), a.max(b)));
-            }
-        }
+        let edges = edges(m);
         let over = edges
             .iter()
             .filter(|&&(a, b)| m.normals[a as usize].dot(m.normals[b as usize]) < c)
