@@ -185,7 +185,7 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
     let (mut mesh, ex, mut cell_of, mut origins) =
         extract::extract_with_origins(&tree, &field, t, &values, &active, cancel)?;
     let on_seam = seam(&mesh, &origins);
-    weld::weld_coincident_in(&mut mesh, &mut cell_of, &on_seam, Some(&mut origins));
+    weld::weld_coincident_in(&mut mesh, &mut cell_of, &on_seam, Some(&mut origins), None);
     let (mut feature, crease_cells) = if opts.creases {
         let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
         let n0 = mesh.positions.len();
@@ -227,6 +227,9 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
         // The round after smoothing: numbered after the others.
         let round = Some((&mut origins, chord::ROUNDS as u32));
         chord::split_round_in(&mut mesh, &mut feature, round, &field, t, tau);
+        let on_seam = seam(&mesh, &origins);
+        let (origins, feature) = (Some(&mut origins), Some(&mut feature));
+        weld::weld_coincident_in(&mut mesh, &mut Vec::new(), &on_seam, origins, feature);
     }
     let smooth_ms = ms(t0);
 

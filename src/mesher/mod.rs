@@ -2,7 +2,8 @@
 //! dual grid → dual marching cubes (MC33) with vertices bisected onto the
 //! surface → coincident vertices welded ([`weld`]) → sharp creases
 //! ([`crease`]) → chord splits ([`chord`]) → smoothing (edge flips and
-//! tangential relaxation) → report.
+//! tangential relaxation) → a last chord round, and the weld again →
+//! report.
 //! The report's topology is computed from the mesh itself
 //! ([`crate::mesh::topology`]), never assumed.
 //!
@@ -278,6 +279,8 @@ fn mesh_refining<E: Evaluator + ?Sized>(
         // Relaxation moves vertices along the surface and may stretch an
         // edge past the tolerance again: one more round on the result.
         chord::split_round(&mut mesh, &mut creases.feature, &field, t, tau);
+        let feature = Some(&mut creases.feature);
+        weld::weld_coincident_in(&mut mesh, &mut Vec::new(), &[], None, feature);
     }
     let smooth_ms = ms(t0);
     cancel.check()?;

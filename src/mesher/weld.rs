@@ -9,6 +9,11 @@
 //! vertices have zero area (SPEC §3 promises none, and no duplicated
 //! vertices on one sheet).
 //!
+//! The last round of chord splits ([`super::chord`], after smoothing) can
+//! do the same: a midpoint projected across a sliver triangle onto its
+//! opposite corner, a crease vertex where the projection converges to the
+//! very point the crease pass found. The mesher welds again after it.
+//!
 //! # Contract
 //!
 //! [`weld_coincident`] collapses every edge whose two ends coincide to
@@ -48,17 +53,19 @@ use crate::mesh::origin::Origins;
 /// `cell_of` holds one value per triangle and follows them. Returns how
 /// many edges were collapsed.
 pub fn weld_coincident(mesh: &mut Mesh, cell_of: &mut Vec<u32>) -> usize {
-    weld_coincident_in(mesh, cell_of, &[], None)
+    weld_coincident_in(mesh, cell_of, &[], None, None)
 }
 
 /// [`weld_coincident`] that leaves alone the edges with an end flagged in
-/// `frozen` (missing flags are false), and keeps `origins` (one per
-/// vertex, when given) in step with the vertices.
+/// `frozen` (missing flags are false), and keeps `origins` and `feature`
+/// (one per vertex, when given; `feature` may stop short, missing flags
+/// being false) in step with the vertices.
 pub fn weld_coincident_in(
     mesh: &mut Mesh,
     cell_of: &mut Vec<u32>,
     frozen: &[bool],
     origins: Option<&mut Origins>,
+    feature: Option<&mut Vec<bool>>,
 ) -> usize {
     let p = &mesh.positions;
     let free = |v: u32| !frozen.get(v as usize).copied().unwrap_or(false);
@@ -107,6 +114,9 @@ pub fn weld_coincident_in(
         let used = compact(mesh, cell_of, &alive);
         if let Some(o) = origins {
             o.retain(&used);
+        }
+        if let Some(f) = feature {
+            retain_flagged(f, &used);
         }
     }
     welded

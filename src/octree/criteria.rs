@@ -9,6 +9,13 @@
 //! | geometry | `Diam(∇F(B)/‖∇F(B)‖) > k_max` | subdivide (not a guarantee) |
 //! | chord (faithful `--level`) | estimated chord error of a mesh through the cell `> τ` ([`chord_error`]) | subdivide (not a guarantee) |
 //!
+//! A cell that fails the topology or geometry test on its own enclosure,
+//! where `F` is differentiable, is judged again on the enclosures over its
+//! 8 and then its 64 pieces ([`judge_by_pieces`]), which interval
+//! arithmetic's dependency problem widens half and a quarter as much: the
+//! same tests on tighter enclosures of the same gradient, so a cell they
+//! pass is certified exactly as if its own enclosure had passed.
+//!
 //! *What each topology test guarantees.* The paper's test only certifies
 //! that `∇F` does not vanish on the cell, so the surface there is a smooth
 //! 2-manifold without singular points; it does not bound how much the
@@ -44,6 +51,23 @@ pub struct Verdict {
     pub topology_ok: bool,
     /// The geometry test passed (normal variation within `k_max`).
     pub geometry_ok: bool,
+    /// `F` is defined and continuous on the whole cell (SPEC §1 domain
+    /// rules): the topology test may be applied.
+    pub defined: bool,
+    /// `F` is also differentiable on the whole cell (no `min`/`max`
+    /// crease, no `abs` fold): enclosures over pieces of the cell may
+    /// prove what the cell's own cannot ([`judge_by_pieces`]); across a
+    /// crease they seldom do (the hull of two faces' gradients often holds
+    /// the zero vector, however small the piece).
+    pub smooth: bool,
+}
+
+impl Verdict {
+    /// The tests that decide a surface leaf passed: the topology test, and
+    /// above the last level the geometry test too.
+    pub fn passed(&self, last_level: bool) -> bool {
+        self.topology_ok && (self.geometry_ok || last_level)
+    }
 }
 
 /// The mean-value form of `F` over a cell (Moore 1966; the centred form
@@ -92,25 +116,79 @@ pub(crate) fn judge(
             empty,
             topology_ok: false,
             geometry_ok: false,
+            defined: value_defined,
+            smooth: g.defined,
         };
     }
     let topology_ok = match test {
-        TopologyTest::Paper => g.grad.iter().any(|c| c.excludes_zero()),
-        TopologyTest::Certify => {
-            let mut dot = Interval { lo: 0.0, hi: 0.0 };
-            for c in g.grad {
-                // Two independent factors: a general product, not a square.
-                let (p, _) = crate::ir::semantics::enclose_binary(BinOp::Mul, c, c);
-                dot = crate::ir::semantics::enclose_binary(BinOp::Add, dot, p).0;
-            }
-            dot.excludes_zero()
-        }
+        TopologyTest::Paper => nonzero(g.grad),
+        TopologyTest::Certify => same_side(g.grad),
     };
     let geometry_ok = topology_ok && normal_spread(g.grad) <= kmax;
     Verdict {
         empty: false,
         topology_ok,
         geometry_ok,
+        defined: true,
+        smooth: g.defined,
+    }
+}
+
+/// The paper's test on a gradient enclosure: `(0,0,0) ∉ G`.
+fn nonzero(grad: [Interval; 3]) -> bool {
+    grad.iter().any(|c| c.excludes_zero())
+}
+
+/// Plantinga & Vegter's test on a gradient enclosure: `0 ∉ ⟨G, G⟩`.
+fn same_side(grad: [Interval; 3]) -> bool {
+    let mut dot = Interval { lo: 0.0, hi: 0.0 };
+    for c in grad {
+        // Two independent factors: a general product, not a square.
+        let (p, _) = crate::ir::semantics::enclose_binary(BinOp::Mul, c, c);
+        dot = crate::ir::semantics::enclose_binary(BinOp::Add, dot, p).0;
+    }
+    dot.excludes_zero()
+}
+
+/// A second look at a cell whose own gradient enclosure failed the
+/// topology or geometry test, from the enclosures over pieces of it
+/// (`pieces`, boxes that together cover the cell). Interval arithmetic
+/// overestimates a range by about the box's width times the derivatives'
+/// spread (the dependency problem: a degree-8 product, `a³` beside its own
+/// zero), so the enclosures over halves are about twice as tight, and
+/// often prove what the whole cell's cannot — the same tests, on
+/// enclosures of the same gradients:
+///
+/// - the paper's test holds on the cell when it holds on every piece
+///   (`∇F ≠ 0` on each, so on their union);
+/// - Plantinga & Vegter's and the geometry test are applied to the hull
+///   of the pieces' enclosures, itself an enclosure of `∇F` over the cell.
+///
+/// Emptiness is not revisited (the pieces' value enclosures go unused), and
+/// a cell where `F` is not defined and continuous stays unproved.
+pub(crate) fn judge_by_pieces(
+    v: Verdict,
+    pieces: &[GradEval],
+    test: TopologyTest,
+    kmax: f64,
+) -> Verdict {
+    let nan = |g: &GradEval| g.grad.iter().any(|c| c.lo.is_nan() || c.hi.is_nan());
+    if v.empty || !v.defined || v.passed(false) || pieces.iter().any(nan) {
+        return v;
+    }
+    // (No NaN bound: `hull` would drop it.)
+    let hull = pieces.iter().skip(1).fold(pieces[0].grad, |h, g| {
+        std::array::from_fn(|k| h[k].hull(g.grad[k]))
+    });
+    let topology_ok = v.topology_ok
+        || match test {
+            TopologyTest::Paper => pieces.iter().all(|g| nonzero(g.grad)),
+            TopologyTest::Certify => same_side(hull),
+        };
+    Verdict {
+        topology_ok,
+        geometry_ok: topology_ok && normal_spread(hull) <= kmax,
+        ..v
     }
 }
 

@@ -7,7 +7,9 @@
 //! computed by [`Octree::cell_box`] with one formula everywhere, so that
 //! neighbouring cells share their computed faces bit for bit and the leaves
 //! tile Ω without gaps. Every node is classified from one interval-gradient
-//! evaluation over its box ([`criteria`]):
+//! evaluation over its box ([`criteria`]), and, where that fails the
+//! topology or geometry test, from evaluations over 8 and then 64 pieces
+//! of the box (tighter enclosures of the same gradient):
 //!
 //! - a node is **discarded** (an [`Leaf::Empty`] leaf) only when the interval
 //!   proves that `F` has no zero in it — a cell is never dropped on a guess;
@@ -34,7 +36,12 @@
 //! enclosure excludes 0, `F` defined, is empty: nothing more is asked),
 //! one [`Evaluator::grad_batch`] over the others, and one
 //! [`Evaluator::interval_batch`] at the centres of the cells whose gradient
-//! flag held (the mean-value form, valid only there). The proof search below ambiguous leaves
+//! flag held (the mean-value form, valid only there). Then `review`: a
+//! point-gradient batch at the corners of the cells the chord criterion
+//! may stop (above the last level, with a chord tolerance), and
+//! [`Evaluator::grad_batch`] over the pieces of the cells that failed the
+//! topology or geometry test on a differentiable `F` and would otherwise
+//! stop. The proof search below ambiguous leaves
 //! ([`Octree::clear_false_ambiguity`]) is recursive, one cell per call;
 //! the ambiguous leaves run in parallel.
 //!
@@ -263,39 +270,122 @@ const OCTREE_SLACK: f64 = 4.0;
 /// `docs/faithful.md`).
 pub const DEFAULT_CHORD: f64 = 0.035;
 
-/// Subdivides, among `cells` (all at one level) evaluated by `f`, the ones
-/// whose verdict would make them surface leaves but whose estimated chord
-/// error ([`criteria::chord_error`]) exceeds `tau` (domain units): their
-/// geometry verdict is turned off. One point-gradient batch at the corners
-/// of those cells.
-fn chord_test<E: Evaluator + ?Sized>(
+/// The verdicts on `cells` (all at one level, evaluated by `f`) after the
+/// cell-local criteria beyond [`examine`]'s one enclosure: above the last
+/// level, with a chord tolerance `tau` (domain units), a cell passes only if
+/// its estimated chord error is within it ([`chord_within`]); a cell that
+/// failed the topology or geometry test (at the last level: the topology
+/// test) gets a second look from pieces of it ([`pieces_test`]) — above
+/// the last level only if its chord error would let it be a leaf.
+fn review<E: Evaluator + ?Sized>(
     f: &E,
     cells: &[[Interval; 4]],
     verdicts: &mut [criteria::Verdict],
+    opts: &OctreeOptions,
+    tau: Option<f64>,
+    last_level: bool,
+) {
+    // Smooth: pieces seldom prove anything across a crease.
+    let second = |v: &criteria::Verdict| !v.empty && v.defined && v.smooth && !v.passed(last_level);
+    let mut open: Vec<usize> = (0..cells.len()).filter(|&i| second(&verdicts[i])).collect();
+    if let Some(tau) = tau.filter(|_| !last_level) {
+        let judged: Vec<usize> = (0..cells.len())
+            .filter(|&i| verdicts[i].passed(false) || second(&verdicts[i]))
+            .collect();
+        let mut within = vec![true; cells.len()];
+        for (&i, ok) in judged
+            .iter()
+            .zip(chord_within(f, cells, &judged, tau, opts.t))
+        {
+            within[i] = ok;
+            verdicts[i].geometry_ok &= ok;
+        }
+        open.retain(|&i| within[i]);
+    }
+    pieces_test(f, cells, verdicts, &open, opts, last_level);
+}
+
+/// Whether each of `cells[i]` for `i` in `which` has an estimated chord
+/// error ([`criteria::chord_error`]) within `tau` (domain units): one
+/// point-gradient batch at the corners of those cells.
+fn chord_within<E: Evaluator + ?Sized>(
+    f: &E,
+    cells: &[[Interval; 4]],
+    which: &[usize],
     tau: f64,
     t: f64,
-) {
-    let open: Vec<usize> = (0..cells.len())
-        .filter(|&i| verdicts[i].geometry_ok)
-        .collect();
-    if open.is_empty() {
-        return;
-    }
+) -> Vec<bool> {
     let lo = |i: usize| DVec3::new(cells[i][0].lo, cells[i][1].lo, cells[i][2].lo);
     let hi = |i: usize| DVec3::new(cells[i][0].hi, cells[i][1].hi, cells[i][2].hi);
-    let corners: Vec<[f64; 3]> = open
+    let corners: Vec<[f64; 3]> = which
         .iter()
         .flat_map(|&i| Octant::ALL.map(|o| o.pick(lo(i), hi(i)).to_array()))
         .collect();
     let mut at = vec![(0.0, [0.0; 3]); corners.len()];
     f.point_grad_batch(&corners, t, &mut at);
-    for (n, &i) in open.iter().enumerate() {
-        let grads: Vec<[f64; 3]> = at[8 * n..8 * n + 8].iter().map(|(_, g)| *g).collect();
-        let side = (hi(i) - lo(i)).min_element();
-        if criteria::chord_error(side, &grads) > tau {
-            verdicts[i].geometry_ok = false;
+    which
+        .iter()
+        .zip(at.chunks_exact(8))
+        .map(|(&i, at)| {
+            let grads: Vec<[f64; 3]> = at.iter().map(|(_, g)| *g).collect();
+            let side = (hi(i) - lo(i)).min_element();
+            criteria::chord_error(side, &grads) <= tau
+        })
+        .collect()
+}
+
+/// Gives the cells `cells[i]` for `i` in `open` (evaluated by `f`) a second
+/// look from their `n³` pieces for `n` in [`PIECES`]
+/// ([`criteria::judge_by_pieces`]): one interval-gradient batch over the
+/// pieces of the cells still failing, per `n`. A cell that passes is a
+/// leaf where it would otherwise be subdivided (and at the last level,
+/// guaranteed where it would be ambiguous).
+fn pieces_test<E: Evaluator + ?Sized>(
+    f: &E,
+    cells: &[[Interval; 4]],
+    verdicts: &mut [criteria::Verdict],
+    open: &[usize],
+    opts: &OctreeOptions,
+    last_level: bool,
+) {
+    let mut open = open.to_vec();
+    for n in PIECES {
+        open.retain(|&i| !verdicts[i].passed(last_level));
+        if open.is_empty() {
+            return;
+        }
+        let pieces: Vec<[Interval; 4]> =
+            open.iter().flat_map(|&i| pieces_of(&cells[i], n)).collect();
+        let mut grads = vec![WHOLE_GRAD; pieces.len()];
+        f.grad_batch(&pieces, &mut grads);
+        for (&i, of_cell) in open.iter().zip(grads.chunks_exact(n * n * n)) {
+            verdicts[i] = criteria::judge_by_pieces(verdicts[i], of_cell, opts.test, opts.kmax);
         }
     }
+}
+
+/// The pieces per axis of [`pieces_test`]'s successive looks.
+const PIECES: [usize; 2] = [2, 4];
+
+/// The `n³` boxes of a cell cut in `n` along each axis, which cover it.
+fn pieces_of(cell: &[Interval; 4], n: usize) -> Vec<[Interval; 4]> {
+    let cut = |k: usize, j: usize| {
+        let (a, b) = (cell[k].lo, cell[k].hi);
+        if j == 0 {
+            a
+        } else if j == n {
+            b
+        } else {
+            a + (b - a) * (j as f64 / n as f64)
+        }
+    };
+    let mut out = Vec::with_capacity(n * n * n);
+    for (i, j, k) in (0..n).flat_map(|i| (0..n).flat_map(move |j| (0..n).map(move |k| (i, j, k)))) {
+        let lo = DVec3::new(cut(0, i), cut(1, j), cut(2, k));
+        let hi = DVec3::new(cut(0, i + 1), cut(1, j + 1), cut(2, k + 1));
+        out.push(cell_input(lo, hi, cell[3].lo));
+    }
+    out
 }
 
 /// Counts gathered while building.
@@ -395,6 +485,8 @@ fn examine<E: Evaluator + ?Sized>(
                     empty: true,
                     topology_ok: false,
                     geometry_ok: false,
+                    defined: true,
+                    smooth: true,
                 };
             }
             let g = grads.next().expect("one gradient per open cell");
@@ -877,7 +969,6 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
         long: bool,
     ) -> Vec<(Option<Leaf>, Tape)> {
         let (opts, tree) = (self.opts, &self.tree);
-        let chord_level = level >= self.min_level && level < self.max_level;
         let cells: Vec<[Interval; 4]> = chunk
             .iter()
             .map(|(i, _)| {
@@ -895,8 +986,9 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             }
             let verdicts = tape.with(self.f, long, |e, interpreted| {
                 let mut v = examine(e, &cells[start..end], opts, interpreted);
-                if let Some(tau) = self.tau.filter(|_| chord_level) {
-                    chord_test(e, &cells[start..end], &mut v, tau, opts.t);
+                if level >= self.min_level {
+                    let last = level == self.max_level;
+                    review(e, &cells[start..end], &mut v, opts, self.tau, last);
                 }
                 v
             });
@@ -1286,5 +1378,63 @@ impl Octree {
             }
         }
         self.stats = s;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::{Rng, surface};
+
+    /// `f = (u + v)² + (u - v)² + 2w² - r²` with `(u, v, w) = p - c` is
+    /// twice the squared distance to `c`, so its gradient vanishes only at
+    /// the centre `c`; but its natural interval extension sums two terms
+    /// that cancel (`2(u+v) + 2(u-v)` for `∂/∂x`), and overestimates the
+    /// gradient by the cell's width (the dependency problem the pieces
+    /// defeat). Random cells, some holding the centre: a cell holding it is
+    /// never certified by either test, a cell certified by its own
+    /// enclosure stays so, and some cells are certified only by pieces.
+    #[test]
+    fn pieces_certify_only_cells_without_a_critical_point() {
+        let centre = [0.13, -0.21, 0.07];
+        let s = surface(&format!(
+            "domain [-1, 1]^3; let u = x - {}; let v = y - {}; let w = z - {};
+             surface (u + v)^2 + (u - v)^2 + 2*w^2 - 0.5;",
+            centre[0], centre[1], centre[2]
+        ));
+        let f = &s;
+        let mut rng = Rng::new(21);
+        for test in [TopologyTest::Paper, TopologyTest::Certify] {
+            let opts = OctreeOptions {
+                test,
+                ..OctreeOptions::default()
+            };
+            let cells: Vec<[Interval; 4]> = (0..4000)
+                .map(|_| {
+                    let side = 0.02 + 0.5 * rng.unit();
+                    let near = rng.unit() < 0.3;
+                    let lo: [f64; 3] = std::array::from_fn(|k| {
+                        if near {
+                            centre[k] - side * rng.unit()
+                        } else {
+                            -1.0 + (2.0 - side) * rng.unit()
+                        }
+                    });
+                    cell_input(DVec3::from(lo), DVec3::from(lo) + side, 0.0)
+                })
+                .collect();
+            let own = examine(f, &cells, &opts, false);
+            let mut v = own.clone();
+            let open: Vec<usize> = (0..cells.len()).collect();
+            pieces_test(f, &cells, &mut v, &open, &opts, true);
+            let holds = |c: &[Interval; 4]| (0..3).all(|k| c[k].contains(centre[k]));
+            let mut by_pieces = 0;
+            for ((c, own), v) in cells.iter().zip(&own).zip(&v) {
+                assert!(!(v.topology_ok && holds(c)), "{test:?}: {c:?} certified");
+                assert!(!own.topology_ok || v.topology_ok, "{test:?}: {c:?} lost");
+                by_pieces += usize::from(v.topology_ok && !own.topology_ok);
+            }
+            assert!(by_pieces >= 20, "{test:?}: only {by_pieces} cells gained");
+        }
     }
 }

@@ -35,7 +35,10 @@
 //!   in each component of at least [`JUDGED`] triangles at least
 //!   [`FLIPPED`] of it (a flipped component
 //!   fails; a sliver at a crease, a chord across a plate thinner than a
-//!   cell or a blob in a thin wall does not);
+//!   cell or a blob in a thin wall does not); a closed mesh below the
+//!   aggregate share passes if its winding number is 1 where `f < 0` and 0
+//!   where `f > 0` at points a few cells off the surface (an exact oracle
+//!   of orientation, blind to thin features: [`winding_mismatches`]);
 //! - **on surface**: `|f(v)| ≤ ON_SURFACE · h · |∇f(v)|` at every vertex,
 //!   `h` the finest cell;
 //! - **degenerate**: no triangle with a repeated index or zero area;
@@ -908,11 +911,15 @@ pub fn check_mesh(
     let (good, all) = (0..ncomp)
         .filter(|&c| judged(c))
         .fold((0.0, 0.0), |(g, a), c| (g + agree[c].0, a + agree[c].1));
-    if !flipped.is_empty() || good < OUTWARD * all {
+    // Below the aggregate share, the mesh is judged by its winding numbers
+    // instead (thin features do not confuse them).
+    let winding = (good < OUTWARD * all).then(|| winding_mismatches(s, mesh, &domain, h));
+    let aggregate_fails = winding.is_some_and(|w| w.mismatched > 0 || w.sampled == 0);
+    if !flipped.is_empty() || aggregate_fails {
         fail(
             "outward",
             format!(
-                "{} of {ncomp} component(s) face −∇f by area{}; {:.4} of the decisive area faces +∇f",
+                "{} of {ncomp} component(s) face −∇f by area{}; {:.4} of the decisive area faces +∇f{}",
                 flipped.len(),
                 flipped
                     .first()
@@ -927,7 +934,8 @@ pub fn check_mesh(
                         )
                     })
                     .unwrap_or_default(),
-                if all > 0.0 { good / all } else { 1.0 }
+                if all > 0.0 { good / all } else { 1.0 },
+                winding.map(|w| format!("; the winding number disagrees with the sign of f at {} of {} points far from the surface, e.g. {:.4}", w.mismatched, w.sampled, w.first)).unwrap_or_default()
             ),
         );
     }
@@ -989,8 +997,157 @@ pub fn check_mesh(
     out
 }
 
+/// Where a mesh's winding number disagrees with the sign of `f`
+/// ([`winding_mismatches`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Winding {
+    /// Points where it disagrees.
+    pub mismatched: usize,
+    /// Points judged.
+    pub sampled: usize,
+    /// The first point where it disagrees.
+    pub first: DVec3,
+}
+
+/// The generalised winding number of a closed, consistently oriented mesh
+/// (the sum of its triangles' signed solid angles over 4π, Van Oosterom &
+/// Strackee's formula) is 1 inside the region it bounds and 0 outside when
+/// its normals face out, −1 inside when they face in, whatever the shape:
+/// an exact orientation oracle where the centroid vote of "outward" meets
+/// features thinner than a cell. A mesh cut by the domain is closed by its
+/// cap, the part of ∂Ω where `f < 0` (normals out of Ω), whose solid angle
+/// is summed over a `CAP_PIXELS²` grid on each face of the domain.
+///
+/// Judged at points `WINDING_MARGIN` finest cells `h` off the surface on
+/// either side of vertices spread over every component (at most
+/// `WINDING_POINTS` in all), kept where `f` has the side's sign, the
+/// first-order distance `|f| / ‖∇f‖` is still over half that (not across
+/// a wall thinner than the step), and, for an open mesh, `CAP_MARGIN` of
+/// the domain's side inside it (where the cap's pixels are fine enough):
+/// the winding number there must be 1 where `f < 0` and 0 where `f > 0`.
+pub fn winding_mismatches(s: &Surface, mesh: &Mesh, domain: &Bounds, h: f64) -> Winding {
+    let mut w = Winding {
+        mismatched: 0,
+        sampled: 0,
+        first: DVec3::ZERO,
+    };
+    let grad = |p: DVec3| {
+        let (v, g) = s.point_grad([p.x, p.y, p.z, 0.0]);
+        (v, DVec3::from(g))
+    };
+    let open = topology::analyze_in(mesh, Some(domain)).boundary_edges > 0;
+    let cap = if open { cap(s, domain) } else { Vec::new() };
+    let (lo, hi) = (DVec3::from(domain.lo), DVec3::from(domain.hi));
+    let inset = CAP_MARGIN * (hi - lo).max_element();
+    let inside = |p: DVec3| !open || (p.cmpge(lo + inset).all() && p.cmple(hi - inset).all());
+    let step = WINDING_MARGIN * h;
+    for p in winding_seeds(mesh).into_iter().flat_map(|v| {
+        let (_, g) = grad(v);
+        [-1.0, 1.0].map(|side| (v + side * step * g.normalize_or_zero(), side))
+    }) {
+        let (at, side) = p;
+        let (v, g) = grad(at);
+        let g = g.length();
+        if !(v.is_finite() && g.is_finite() && v * side > 0.5 * step * g && inside(at)) {
+            continue;
+        }
+        let want = if v < 0.0 { 1.0 } else { 0.0 };
+        let cap_angle: f64 = cap
+            .iter()
+            .map(|&(c, n)| n.dot(c - at) / (c - at).length().powi(3))
+            .sum();
+        let winding = winding_number(mesh, at) + cap_angle / (4.0 * std::f64::consts::PI);
+        w.sampled += 1;
+        if winding.round() != want {
+            if w.mismatched == 0 {
+                w.first = at;
+            }
+            w.mismatched += 1;
+        }
+    }
+    w
+}
+
+/// The cap of a mesh cut by the domain: the pixels of a `CAP_PIXELS²` grid
+/// on each face of the domain whose centre has `f < 0`, each as its centre
+/// and its area times the face's outward unit normal.
+fn cap(s: &Surface, domain: &Bounds) -> Vec<(DVec3, DVec3)> {
+    let (lo, hi) = (DVec3::from(domain.lo), DVec3::from(domain.hi));
+    let size = hi - lo;
+    let n = CAP_PIXELS;
+    let mut out = Vec::new();
+    for axis in 0..3 {
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        let area = size[u] * size[v] / (n * n) as f64;
+        for (side, at) in [(-1.0, lo[axis]), (1.0, hi[axis])] {
+            for k in 0..n * n {
+                let mut c = DVec3::ZERO;
+                c[axis] = at;
+                c[u] = lo[u] + ((k % n) as f64 + 0.5) / n as f64 * size[u];
+                c[v] = lo[v] + ((k / n) as f64 + 0.5) / n as f64 * size[v];
+                if s.point([c.x, c.y, c.z, 0.0]) < 0.0 {
+                    let mut normal = DVec3::ZERO;
+                    normal[axis] = side * area;
+                    out.push((c, normal));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Pixels per side of each domain face in [`cap`].
+const CAP_PIXELS: usize = 160;
+
+/// Least distance from the domain's faces, as a share of its largest
+/// side, of a point [`winding_mismatches`] judges on an open mesh.
+const CAP_MARGIN: f64 = 0.03;
+
+/// Vertices spread over every component of `mesh`: at most
+/// `WINDING_POINTS / 2` in all, at least two a component.
+fn winding_seeds(mesh: &Mesh) -> Vec<DVec3> {
+    let comp = topology::triangle_components(mesh);
+    let ncomp = comp.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
+    let mut of: Vec<Vec<usize>> = vec![Vec::new(); ncomp];
+    for (t, &c) in comp.iter().enumerate() {
+        of[c as usize].push(t);
+    }
+    let per = (WINDING_POINTS / 2 / ncomp.max(1)).max(2);
+    of.iter()
+        .flat_map(|tris| {
+            let stride = tris.len().div_ceil(per).max(1);
+            tris.iter()
+                .step_by(stride)
+                .map(|&t| mesh.positions[mesh.triangles[t][0] as usize])
+        })
+        .collect()
+}
+
+/// The generalised winding number of `mesh` at `p`.
+fn winding_number(mesh: &Mesh, p: DVec3) -> f64 {
+    let angle: f64 = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|k| mesh.positions[k as usize] - p);
+            let (la, lb, lc) = (a.length(), b.length(), c.length());
+            let den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
+            2.0 * a.dot(b.cross(c)).atan2(den)
+        })
+        .sum();
+    angle / (4.0 * std::f64::consts::PI)
+}
+
+/// Most points [`winding_mismatches`] judges.
+const WINDING_POINTS: usize = 256;
+
+/// Step off the surface, in finest cells, to a point
+/// [`winding_mismatches`] judges.
+const WINDING_MARGIN: f64 = 3.0;
+
 /// Share of the decisive area facing `+∇f` below which a mesh fails
-/// "outward".
+/// "outward" (unless its winding numbers agree with the sign of `f`,
+/// [`winding_mismatches`]).
 pub const OUTWARD: f64 = 0.9;
 
 /// Fewest triangles of a component judged "outward": a blob of a few
