@@ -287,21 +287,26 @@ fn review<E: Evaluator + ?Sized>(
 ) {
     // Smooth: pieces seldom prove anything across a crease.
     let second = |v: &criteria::Verdict| !v.empty && v.defined && v.smooth && !v.passed(last_level);
-    let mut open: Vec<usize> = (0..cells.len()).filter(|&i| second(&verdicts[i])).collect();
-    if let Some(tau) = tau.filter(|_| !last_level) {
-        let judged: Vec<usize> = (0..cells.len())
-            .filter(|&i| verdicts[i].passed(false) || second(&verdicts[i]))
-            .collect();
-        let mut within = vec![true; cells.len()];
-        for (&i, ok) in judged
-            .iter()
-            .zip(chord_within(f, cells, &judged, tau, opts.t))
-        {
-            within[i] = ok;
-            verdicts[i].geometry_ok &= ok;
+    let open: Vec<usize> = match tau.filter(|_| !last_level) {
+        None => (0..cells.len()).filter(|&i| second(&verdicts[i])).collect(),
+        Some(tau) => {
+            let judged: Vec<usize> = (0..cells.len())
+                .filter(|&i| verdicts[i].passed(false) || second(&verdicts[i]))
+                .collect();
+            let within = chord_within(f, cells, &judged, tau, opts.t);
+            // A cell within the tolerance keeps its verdict: it gets the
+            // second look if it needs one.
+            judged
+                .into_iter()
+                .zip(within)
+                .filter(|&(i, ok)| {
+                    verdicts[i].geometry_ok &= ok;
+                    ok && second(&verdicts[i])
+                })
+                .map(|(i, _)| i)
+                .collect()
         }
-        open.retain(|&i| within[i]);
-    }
+    };
     pieces_test(f, cells, verdicts, &open, opts, last_level);
 }
 

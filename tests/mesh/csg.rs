@@ -380,9 +380,9 @@ fn the_winding_number_judges_orientation() {
     use isoc::mesh::topology;
     let (s, _, mesh, _) = two_spheres();
     let h = 2.0 / 32.0;
-    let good = winding_mismatches(&s, &mesh, &DOMAIN, h);
+    let good = winding_mismatches(&s, &mesh, false, &DOMAIN, h);
     assert!(good.sampled > 100 && good.mismatched == 0, "{good:?}");
-    let inside = |m: &isoc::Mesh| winding_mismatches(&s, m, &DOMAIN, h).mismatched;
+    let inside = |m: &isoc::Mesh| winding_mismatches(&s, m, false, &DOMAIN, h).mismatched;
     // Flip one sphere, then both: the points inside the flipped ones.
     let comp = topology::triangle_components(&mesh);
     let mut m = mesh.clone();
@@ -409,13 +409,13 @@ fn the_winding_number_judges_orientation() {
         let s = compile(src, "cut.iso");
         let (mut m, _) = isoc::mesher::mesh(&s, &crate::support::csg::options(5, false), &|_| {});
         assert!(topology::analyze(&m).boundary_edges > 0, "{src}: not cut");
-        let good = winding_mismatches(&s, &m, &DOMAIN, h);
+        let good = winding_mismatches(&s, &m, true, &DOMAIN, h);
         assert!(
             good.sampled > 100 && good.mismatched == 0,
             "{src}: {good:?}"
         );
         m.triangles.iter_mut().for_each(|t| t.swap(1, 2));
-        let bad = winding_mismatches(&s, &m, &DOMAIN, h);
+        let bad = winding_mismatches(&s, &m, true, &DOMAIN, h);
         assert!(bad.mismatched > 0, "{src}: flipped unseen: {bad:?}");
     }
 }

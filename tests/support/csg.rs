@@ -35,10 +35,11 @@
 //!   in each component of at least [`JUDGED`] triangles at least
 //!   [`FLIPPED`] of it (a flipped component
 //!   fails; a sliver at a crease, a chord across a plate thinner than a
-//!   cell or a blob in a thin wall does not); a closed mesh below the
-//!   aggregate share passes if its winding number is 1 where `f < 0` and 0
-//!   where `f > 0` at points a few cells off the surface (an exact oracle
-//!   of orientation, blind to thin features: [`winding_mismatches`]);
+//!   cell or a blob in a thin wall does not); a mesh below the aggregate
+//!   share passes if its winding number (a mesh cut by the domain closed
+//!   by ∂Ω where `f < 0`) is 1 where `f < 0` and 0 where `f > 0` at points
+//!   a few cells off the surface (an exact oracle of orientation, blind to
+//!   thin features: [`winding_mismatches`]);
 //! - **on surface**: `|f(v)| ≤ ON_SURFACE · h · |∇f(v)|` at every vertex,
 //!   `h` the finest cell;
 //! - **degenerate**: no triangle with a repeated index or zero area;
@@ -913,7 +914,8 @@ pub fn check_mesh(
         .fold((0.0, 0.0), |(g, a), c| (g + agree[c].0, a + agree[c].1));
     // Below the aggregate share, the mesh is judged by its winding numbers
     // instead (thin features do not confuse them).
-    let winding = (good < OUTWARD * all).then(|| winding_mismatches(s, mesh, &domain, h));
+    let open = topo.boundary_edges > 0;
+    let winding = (good < OUTWARD * all).then(|| winding_mismatches(s, mesh, open, &domain, h));
     let aggregate_fails = winding.is_some_and(|w| w.mismatched > 0 || w.sampled == 0);
     if !flipped.is_empty() || aggregate_fails {
         fail(
@@ -1025,7 +1027,14 @@ pub struct Winding {
 /// a wall thinner than the step), and, for an open mesh, `CAP_MARGIN` of
 /// the domain's side inside it (where the cap's pixels are fine enough):
 /// the winding number there must be 1 where `f < 0` and 0 where `f > 0`.
-pub fn winding_mismatches(s: &Surface, mesh: &Mesh, domain: &Bounds, h: f64) -> Winding {
+/// `open`: the mesh has boundary edges (on ∂Ω).
+pub fn winding_mismatches(
+    s: &Surface,
+    mesh: &Mesh,
+    open: bool,
+    domain: &Bounds,
+    h: f64,
+) -> Winding {
     let mut w = Winding {
         mismatched: 0,
         sampled: 0,
@@ -1035,17 +1044,15 @@ pub fn winding_mismatches(s: &Surface, mesh: &Mesh, domain: &Bounds, h: f64) -> 
         let (v, g) = s.point_grad([p.x, p.y, p.z, 0.0]);
         (v, DVec3::from(g))
     };
-    let open = topology::analyze_in(mesh, Some(domain)).boundary_edges > 0;
     let cap = if open { cap(s, domain) } else { Vec::new() };
     let (lo, hi) = (DVec3::from(domain.lo), DVec3::from(domain.hi));
     let inset = CAP_MARGIN * (hi - lo).max_element();
     let inside = |p: DVec3| !open || (p.cmpge(lo + inset).all() && p.cmple(hi - inset).all());
     let step = WINDING_MARGIN * h;
-    for p in winding_seeds(mesh).into_iter().flat_map(|v| {
+    for (at, side) in winding_seeds(mesh).into_iter().flat_map(|v| {
         let (_, g) = grad(v);
         [-1.0, 1.0].map(|side| (v + side * step * g.normalize_or_zero(), side))
     }) {
-        let (at, side) = p;
         let (v, g) = grad(at);
         let g = g.length();
         if !(v.is_finite() && g.is_finite() && v * side > 0.5 * step * g && inside(at)) {
