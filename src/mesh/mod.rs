@@ -12,6 +12,7 @@
 
 pub mod deviation;
 pub(crate) mod dynmesh;
+pub mod order;
 pub mod origin;
 pub mod quality;
 pub mod sink;

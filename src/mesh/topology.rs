@@ -15,7 +15,7 @@
 //! edge is an *open edge*. The mesh is [`Topology::manifold`] when no edge
 //! has three or more triangles, no edge is open and no vertex is a bow-tie.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use glam::DVec3;
 
@@ -159,7 +159,7 @@ pub fn analyze_in(mesh: &Mesh, domain: Option<&Bounds>) -> Topology {
         directed,
     } = edges(mesh);
     // Per component: V, E, F and closedness.
-    let mut comp: HashMap<u32, Component> = HashMap::new();
+    let mut comp: HashMap<u32, Component> = HashMap::default();
     for i in 0..n as u32 {
         if used[i as usize] {
             let r = uf.find(i);

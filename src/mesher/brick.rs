@@ -47,6 +47,7 @@ use crate::cancel::{Cancel, Cancelled};
 use crate::dual;
 use crate::eval::Evaluator;
 use crate::geometry::Bounds;
+use crate::mesh::order::permute;
 use crate::mesh::origin::{self, Origins};
 use crate::mesh::sink::Sink;
 use crate::mesh::{Mesh, topology};
@@ -196,6 +197,10 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
         (vec![false; mesh.positions.len()], 0)
     };
     drop((values, active, cell_of));
+    let new_of_old = mesh.reorder();
+    permute(&mut feature, &new_of_old);
+    permute(&mut origins.ids, &new_of_old);
+    permute(&mut origins.sides, &new_of_old);
     let tau = opts.octree.chord_tolerance(domain);
     if let Some(tau) = tau {
         chord::split_edges_in(

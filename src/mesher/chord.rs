@@ -35,17 +35,17 @@
 //! chord criterion ([`crate::octree::OctreeOptions::chord`]) decides the
 //! coarse sizes; this pass only corrects the last factor below a level.
 
-use std::collections::HashMap;
-
 use glam::DVec3;
 use rayon::prelude::*;
+use rustc_hash::FxHashMap as HashMap;
+use smallvec::SmallVec;
 
 use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
-use crate::mesh::Mesh;
 use crate::mesh::origin::Origins;
-use crate::roots::project_along;
+use crate::mesh::{Mesh, Star};
+use crate::roots::project_along_batch;
 
 /// Rounds of splitting (each at most halves an edge).
 pub const ROUNDS: usize = 3;
@@ -83,14 +83,18 @@ pub fn split_edges_in<E: Evaluator + ?Sized>(
     tau: f64,
     cancel: &Cancel,
 ) -> Result<usize, Cancelled> {
-    let mut total = 0;
+    let (mut total, mut fresh) = (0, 0);
     for round in 0..ROUNDS {
         cancel.check()?;
         let part = origins.as_deref_mut().map(|o| (o, round as u32));
-        let n = split_round_in(mesh, feature, part, f, t, tau);
+        let before = mesh.positions.len() as u32;
+        let n = split_round_from(mesh, feature, part, f, t, tau, fresh);
         if n == 0 {
             break;
         }
+        // Every edge the round made has a new vertex for an end; the
+        // others, and their ends, are as the round measured them.
+        fresh = before;
         total += n;
     }
     Ok(total)
@@ -118,14 +122,22 @@ pub fn split_round_in<E: Evaluator + ?Sized>(
     t: f64,
     tau: f64,
 ) -> usize {
-    let splits = splits(
-        mesh,
-        feature,
-        origins.as_ref().map(|(o, _)| &**o),
-        f,
-        t,
-        tau,
-    );
+    split_round_from(mesh, feature, origins, f, t, tau, 0)
+}
+
+/// [`split_round_in`] on the edges with an end numbered `fresh` or more
+/// (the rest measured by the last round, unchanged since).
+fn split_round_from<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    feature: &mut Vec<bool>,
+    origins: Option<(&mut Origins, u32)>,
+    f: &E,
+    t: f64,
+    tau: f64,
+    fresh: u32,
+) -> usize {
+    let part = origins.as_ref().map(|(o, _)| &**o);
+    let splits = splits(mesh, feature, part, f, t, tau, fresh);
     apply(mesh, feature, &splits);
     if let Some((o, round)) = origins {
         for &((a, b), _, _) in &splits {
@@ -148,8 +160,9 @@ fn splits<E: Evaluator + ?Sized>(
     f: &E,
     t: f64,
     tau: f64,
+    fresh: u32,
 ) -> Vec<((u32, u32), DVec3, DVec3)> {
-    let edges = inner_edges(mesh, feature, part);
+    let edges = inner_edges(mesh, feature, part, fresh);
     let (p, n) = (&mesh.positions, &mesh.normals);
     edges
         .par_chunks(EDGES_PER_TASK)
@@ -159,65 +172,97 @@ fn splits<E: Evaluator + ?Sized>(
                 .map(|&(a, b)| (p[a as usize] + p[b as usize]) * 0.5)
                 .collect();
             let measured = grads_at(f, t, &mids);
-            let far = chunk.iter().zip(mids).zip(measured).filter(|(_, (v, g))| {
+            let far: Vec<((u32, u32), (DVec3, f64))> = chunk
+                .iter()
+                .zip(mids)
+                .zip(measured)
                 // NaN (no gradient) is not a measurement: no split.
-                v.abs() / g.length() > tau
-            });
-            far.filter_map(|((&(a, b), mid), _)| {
-                let (a, b) = (a as usize, b as usize);
-                let reach = REACH * p[a].distance(p[b]);
-                let (q, _) = project_along(f, t, mid, reach)?;
-                // The gradient at the new vertex itself (its normal): on
-                // the sheet of the edge's ends, not across a thin wall.
-                let (_, g) = f.point_grad([q.x, q.y, q.z, t]);
-                let g = DVec3::from_array(g);
-                let same_sheet = g.dot(n[a]) > 0.0 && g.dot(n[b]) > 0.0;
-                (g.is_finite() && same_sheet).then_some(((a as u32, b as u32), q, g))
-            })
-            .collect::<Vec<_>>()
+                .filter(|(_, (v, g))| v.abs() / g.length() > tau)
+                .map(|((&(a, b), mid), _)| {
+                    let reach = REACH * p[a as usize].distance(p[b as usize]);
+                    ((a, b), (mid, reach))
+                })
+                .collect();
+            let starts: Vec<(DVec3, f64)> = far.iter().map(|&(_, s)| s).collect();
+            let projected: Vec<((u32, u32), DVec3)> = far
+                .iter()
+                .zip(project_along_batch(f, t, &starts))
+                .filter_map(|(&(e, _), r)| r.map(|(q, _)| (e, q)))
+                .collect();
+            // The gradient at each new vertex itself (its normal): on the
+            // sheet of the edge's ends, not across a thin wall.
+            let qs: Vec<DVec3> = projected.iter().map(|&(_, q)| q).collect();
+            projected
+                .into_iter()
+                .zip(grads_at(f, t, &qs))
+                .filter(|&(((a, b), _), (_, g))| {
+                    g.is_finite() && g.dot(n[a as usize]) > 0.0 && g.dot(n[b as usize]) > 0.0
+                })
+                .map(|((e, q), (_, g))| (e, q, g))
+                .collect::<Vec<_>>()
         })
         .collect()
 }
 
 /// The edges (smaller index first, sorted) with exactly two triangles and
-/// not both ends on a crease. A boundary edge lies on the domain's face,
-/// where a projected midpoint would not. In a `part` of a mesh, also the
-/// edges with one triangle off ∂Ω (a seam: see the module doc).
-fn inner_edges(mesh: &Mesh, feature: &[bool], part: Option<&Origins>) -> Vec<(u32, u32)> {
+/// not both ends on a crease, among those with an end numbered `fresh` or
+/// more. A boundary edge lies on the domain's face, where a projected
+/// midpoint would not. In a `part` of a mesh, also the edges with one
+/// triangle off ∂Ω (a seam: see the module doc).
+fn inner_edges(
+    mesh: &Mesh,
+    feature: &[bool],
+    part: Option<&Origins>,
+    fresh: u32,
+) -> Vec<(u32, u32)> {
     let crease = |v: u32| feature.get(v as usize).copied().unwrap_or(false);
-    let mut uses: Vec<(u32, u32)> = mesh
-        .triangles
-        .iter()
-        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-        .map(|(a, b)| (a.min(b), a.max(b)))
-        .filter(|&(a, b)| !(crease(a) && crease(b)))
-        .collect();
-    uses.par_sort_unstable();
-    // In place: the first of each run of exactly two.
-    let mut kept = 0;
-    let mut i = 0;
-    while i < uses.len() {
-        let mut j = i + 1;
-        while j < uses.len() && uses[j] == uses[i] {
-            j += 1;
-        }
-        let (a, b) = uses[i];
-        let seam = j - i == 1 && part.is_some_and(|o| !o.on_boundary(a, b));
-        if j - i == 2 || seam {
-            uses[kept] = uses[i];
-            kept += 1;
-        }
-        i = j;
-    }
-    uses.truncate(kept);
-    uses.shrink_to_fit();
-    uses
+    let star = Star::new(mesh);
+    let tris = &mesh.triangles;
+    (0..mesh.positions.len() as u32)
+        .into_par_iter()
+        .flat_map_iter(|a| {
+            // The uses of the edges whose smaller end is `a` (a triangle's
+            // sides, as many times as it has them: once per triangle but
+            // for one with a repeated corner), sorted.
+            let mut uses: SmallVec<[u32; 16]> = SmallVec::new();
+            let mut last = None;
+            for &ti in star.of(a as usize) {
+                if last.replace(ti) == Some(ti) {
+                    // The star lists a triangle once per corner it is.
+                    continue;
+                }
+                let t = tris[ti as usize];
+                for k in 0..3 {
+                    let (x, y) = (t[k], t[(k + 1) % 3]);
+                    let (lo, hi) = (x.min(y), x.max(y));
+                    if lo == a && hi >= fresh && !(crease(lo) && crease(hi)) {
+                        uses.push(hi);
+                    }
+                }
+            }
+            uses.sort_unstable();
+            // The edges used exactly twice (once, on a part's seam).
+            let mut kept: SmallVec<[(u32, u32); 8]> = SmallVec::new();
+            for run in uses.chunk_by(|x, y| x == y) {
+                let b = run[0];
+                let seam = run.len() == 1 && part.is_some_and(|o| !o.on_boundary(a, b));
+                if run.len() == 2 || seam {
+                    kept.push((a, b));
+                }
+            }
+            kept
+        })
+        .collect()
 }
 
 /// Splits `mesh`'s edges at the given vertices (see the module doc).
 fn apply(mesh: &mut Mesh, feature: &mut Vec<bool>, splits: &[((u32, u32), DVec3, DVec3)]) {
     feature.resize(mesh.positions.len(), false);
-    let mut at: HashMap<(u32, u32), u32> = HashMap::with_capacity(splits.len());
+    if splits.is_empty() {
+        return;
+    }
+    let mut at: HashMap<(u32, u32), u32> = HashMap::default();
+    at.reserve(splits.len());
     for &((a, b), q, g) in splits {
         at.insert((a, b), mesh.positions.len() as u32);
         let ambiguous = mesh.ambiguous[a as usize] || mesh.ambiguous[b as usize];

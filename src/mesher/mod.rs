@@ -28,6 +28,7 @@ pub mod weld;
 use crate::cancel::{Cancel, Cancelled, uncancelled};
 use crate::eval::Evaluator;
 use crate::geometry::Bounds;
+use crate::mesh::order::permute;
 use crate::mesh::{Mesh, quality, topology};
 use crate::octree::{Octree, OctreeOptions, OctreeStats, Refine};
 use crate::polygonize::extract;
@@ -265,8 +266,11 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     // The dual grid's data is not needed past the creases: free it before
     // the stages that add to the mesh.
     drop((values, active, cell_of));
+    permute(&mut creases.feature, &mesh.reorder());
     if let Some(tau) = opts.octree.chord_tolerance(domain) {
         chord::split_edges(&mut mesh, &mut creases.feature, &field, t, tau, cancel)?;
+        // The splits' vertices and triangles came last: in order again.
+        permute(&mut creases.feature, &mesh.reorder());
     }
     let polygonize_ms = ms(t0);
 

@@ -35,8 +35,10 @@
 //! anisotropic dual cells). Two neighbours never move at once, so they
 //! cannot together flip a triangle that each alone would not.
 //!
-//! Evaluation: the projections are sequential per vertex (each evaluation
-//! depends on the last; the vertices run in parallel). A moved vertex's
+//! Evaluation: a colour class's targets are projected in batches
+//! ([`crate::roots::project_along_batch`]: each step of the projection is
+//! one batch call over the vertices still projecting; the batches run in
+//! parallel). A moved vertex's
 //! tangent plane in the next pass is the one at its relaxation target (the
 //! gradient the projection starts from); after the last pass the normals
 //! of every vertex that moved are one batch of point gradients at the
@@ -54,6 +56,7 @@
 
 use glam::DVec3;
 use rayon::prelude::*;
+use smallvec::SmallVec;
 
 use super::flip::Flips;
 use crate::cancel::{Cancel, Cancelled, uncancelled};
@@ -61,7 +64,7 @@ use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::mesh::quality::{aspect, aspect_ratio};
 use crate::mesh::{Mesh, Star};
-use crate::roots::project_along;
+use crate::roots::project_along_batch;
 
 /// Whether moving vertex `v` to `p`, where the surface's normal is `n`,
 /// keeps every incident triangle's orientation and a reasonable share of
@@ -105,7 +108,7 @@ fn target(mesh: &Mesh, star: &Star, aspects: &[f64], v: usize) -> Option<(DVec3,
     }
     // The edge opposite `v` in each triangle of the star (`None`: `v` is
     // not a corner of one of its triangles, a broken star).
-    let opposite: Option<Vec<(DVec3, DVec3)>> = tris
+    let opposite: Option<SmallVec<[(DVec3, DVec3); 12]>> = tris
         .iter()
         .map(|&ti| {
             let tri = mesh.triangles[ti as usize];
@@ -211,7 +214,7 @@ pub fn smooth<E: Evaluator + ?Sized>(mesh: &mut Mesh, f: &E, t: f64, passes: usi
 /// [`smooth`], keeping the vertices flagged in `keep` (crease points,
 /// [`super::crease`]) where they are and every edge between two of them
 /// unflipped (a shorter `keep` flags nothing past its end). Stops with
-/// [`Cancelled`] soon after `cancel` is cancelled (polled per vertex of
+/// [`Cancelled`] soon after `cancel` is cancelled (polled per batch of
 /// each colour class); the mesh is then valid but partly smoothed (every move made is
 /// a safe one) and its moved vertices' normals are not yet refreshed.
 pub fn smooth_keeping<E: Evaluator + ?Sized>(
@@ -259,13 +262,24 @@ pub fn smooth_part<E: Evaluator + ?Sized>(
         let mut moves = 0;
         for class in colour_classes(mesh, &star) {
             cancel.check()?;
-            let candidates: Vec<(u32, DVec3, DVec3)> = class
+            let targets: Vec<(u32, DVec3, f64)> = class
                 .par_iter()
-                .filter(|&&v| !pinned[v as usize] && !cancel.is_cancelled())
+                .filter(|&&v| !pinned[v as usize])
                 .filter_map(|&v| {
                     let (q, reach) = target(mesh, &star, &aspects, v as usize)?;
-                    let (p, g) = project_along(f, t, q, 0.5 * reach)?;
-                    Some((v, p, g))
+                    Some((v, q, 0.5 * reach))
+                })
+                .collect();
+            let candidates: Vec<(u32, DVec3, DVec3)> = targets
+                .par_chunks(PROJECT_CHUNK)
+                .filter(|_| !cancel.is_cancelled())
+                .flat_map_iter(|part| {
+                    let starts: Vec<(DVec3, f64)> = part.iter().map(|&(_, q, d)| (q, d)).collect();
+                    let projected = project_along_batch(f, t, &starts);
+                    part.iter()
+                        .zip(projected)
+                        .filter_map(|(&(v, _, _), r)| r.map(|(p, g)| (v, p, g)))
+                        .collect::<Vec<_>>()
                 })
                 .collect();
             cancel.check()?;
@@ -303,6 +317,10 @@ pub fn smooth_part<E: Evaluator + ?Sized>(
     }
     Ok(accepted)
 }
+
+/// Relaxation targets projected together (one batch of each evaluation;
+/// many batches for the threads).
+const PROJECT_CHUNK: usize = 256;
 
 /// Vertices whose normals are refreshed together (bounds the transient
 /// position and gradient arrays; still many batches for the threads).

@@ -39,7 +39,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::mc33::{self, EDGE_CORNERS, Vertex};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use crate::cancel::{Cancel, Cancelled};
 use crate::dual::{self, Corner, DualCell};
@@ -154,7 +154,7 @@ impl CornerValues {
         }
         CornerValues {
             leaves: values,
-            ghosts: HashMap::new(),
+            ghosts: HashMap::default(),
         }
     }
 

@@ -28,7 +28,10 @@
 //!   changes on it, else a sign-change bracket grown around that point;
 //!   refined by [`bisect`]), refusing to move farther than a given distance, so that a
 //!   point never jumps to another sheet of the surface. Each evaluation
-//!   depends on the last, so it evaluates one point at a time.
+//!   depends on the last, so it evaluates one point at a time;
+//!   [`project_along_batch`] projects many points in lock-step (one batch
+//!   call for the gradients at the starts, one for Newton's points, then
+//!   [`bisect_batch`]) with [`project_along`]'s results bit for bit.
 //! - [`line_zero`]: a zero along a given line (the mesher's splits, where
 //!   the gradient line would fold a triangle over).
 //! - [`walk::newton`]: a Newton walk with bounded steps (the twinned
@@ -414,41 +417,153 @@ pub fn project_along<E: Evaluator + ?Sized>(
     max_dist: f64,
 ) -> Option<(DVec3, DVec3)> {
     let (fp, g) = f.point_grad(at(p, t));
-    let g = DVec3::from_array(g);
-    if !fp.is_finite() || !g.is_finite() || g.length_squared() == 0.0 {
-        return None;
+    let line = match GradientLine::start(p, max_dist, fp, g) {
+        Err(done) => return done,
+        Ok(line) => line,
+    };
+    let fn_ = f.point(at(line.newton(), t));
+    match line.after_newton(fn_) {
+        AfterNewton::Done(q) => Some((q, line.g)),
+        AfterNewton::Bisect(s) => Some((bisect(f, t, s.a, s.b, s.fa, s.fb), line.g)),
+        AfterNewton::Grow => line.grow(f, t).map(|q| (q, line.g)),
     }
-    if fp == 0.0 {
-        return Some((p, g));
-    }
-    let dir = g.normalize();
-    // Newton's guess of the signed distance along the gradient line.
-    let guess = (-fp / g.length()).clamp(-max_dist, max_dist);
-    let sign = |x: f64| x < 0.0;
-    // Newton's point itself: on the surface, or past it (the zero lies
-    // between `p` and it).
-    let newton = p + dir * guess;
-    let fn_ = f.point(at(newton, t));
-    if fn_ == 0.0 {
-        return Some((newton, g));
-    }
-    if fn_.is_finite() && sign(fn_) != sign(fp) {
-        return Some((bisect(f, t, p, newton, fp, fn_), g));
-    }
-    // Short of it: grow a bracket around the guess until the sign changes.
-    let mut step = (guess.abs() * 0.25).max(max_dist * 1e-6);
-    for _ in 0..40 {
-        let lo = (guess - step).max(-max_dist);
-        let hi = (guess + step).min(max_dist);
-        let (a, b) = (p + dir * lo, p + dir * hi);
-        let (fa, fb) = (f.point(at(a, t)), f.point(at(b, t)));
-        if fa.is_finite() && fb.is_finite() && sign(fa) != sign(fb) {
-            return Some((bisect(f, t, a, b, fa, fb), g));
+}
+
+/// [`project_along`] from every `(p, max_dist)` of `starts`, with the same
+/// results bit for bit: the gradients at the starts are one
+/// [`Evaluator::point_grad_batch`] call, Newton's points one
+/// [`Evaluator::point_batch`] call, and the segments they bracket go to
+/// [`bisect_batch`]; a start whose Newton point falls short of the surface
+/// (rare) grows its bracket alone, as [`project_along`] does.
+pub fn project_along_batch<E: Evaluator + ?Sized>(
+    f: &E,
+    t: f64,
+    starts: &[(DVec3, f64)],
+) -> Vec<Option<(DVec3, DVec3)>> {
+    let pts: Vec<[f64; 3]> = starts.iter().map(|(p, _)| p.to_array()).collect();
+    let mut grads = vec![(0.0, [0.0; 3]); pts.len()];
+    f.point_grad_batch(&pts, t, &mut grads);
+    let mut out = vec![None; starts.len()];
+    let mut lines = Vec::new();
+    for (i, (&(p, max_dist), &(fp, g))) in starts.iter().zip(&grads).enumerate() {
+        match GradientLine::start(p, max_dist, fp, g) {
+            Err(done) => out[i] = done,
+            Ok(line) => lines.push((i, line)),
         }
-        if lo <= -max_dist && hi >= max_dist {
-            return None;
-        }
-        step *= 2.0;
     }
-    None
+    let newton: Vec<DVec3> = lines.iter().map(|(_, l)| l.newton()).collect();
+    let mut values = vec![0.0; newton.len()];
+    let coord = |k: usize| newton.iter().map(|q| q[k]).collect::<Vec<f64>>();
+    f.point_batch(&coord(0), &coord(1), &coord(2), t, &mut values);
+    let mut segments = Vec::new();
+    for ((i, line), fn_) in lines.iter().zip(values) {
+        match line.after_newton(fn_) {
+            AfterNewton::Done(q) => out[*i] = Some((q, line.g)),
+            AfterNewton::Bisect(s) => segments.push((*i, line.g, s)),
+            AfterNewton::Grow => out[*i] = line.grow(f, t).map(|q| (q, line.g)),
+        }
+    }
+    let ends: Vec<Segment> = segments.iter().map(|&(_, _, s)| s).collect();
+    for ((i, g, _), q) in segments.into_iter().zip(bisect_batch(f, t, &ends)) {
+        out[i] = Some((q, g));
+    }
+    out
+}
+
+/// [`project_along`]'s line: from `p` along the unit gradient `dir`, with
+/// Newton's guess `guess` of the signed distance to the zero, within
+/// `max_dist`.
+#[derive(Clone, Copy, Debug)]
+struct GradientLine {
+    p: DVec3,
+    fp: f64,
+    g: DVec3,
+    dir: DVec3,
+    guess: f64,
+    max_dist: f64,
+}
+
+/// What `f` at Newton's point says.
+enum AfterNewton {
+    /// The point is on the surface.
+    Done(DVec3),
+    /// The zero lies between the start and Newton's point.
+    Bisect(Segment),
+    /// Newton's point falls short: a bracket must be grown around it.
+    Grow,
+}
+
+impl GradientLine {
+    /// The line from `p`, given `f(p) = fp` and its gradient `g`; `Err` with
+    /// the projection when it needs no line: `None` where the value or the
+    /// gradient is not finite or the gradient is zero, `p` itself where
+    /// `f(p) = 0`.
+    fn start(
+        p: DVec3,
+        max_dist: f64,
+        fp: f64,
+        g: [f64; 3],
+    ) -> Result<Self, Option<(DVec3, DVec3)>> {
+        let g = DVec3::from_array(g);
+        if !fp.is_finite() || !g.is_finite() || g.length_squared() == 0.0 {
+            return Err(None);
+        }
+        if fp == 0.0 {
+            return Err(Some((p, g)));
+        }
+        Ok(Self {
+            p,
+            fp,
+            g,
+            dir: g.normalize(),
+            // Newton's guess of the signed distance along the gradient line.
+            guess: (-fp / g.length()).clamp(-max_dist, max_dist),
+            max_dist,
+        })
+    }
+
+    /// Newton's point itself: on the surface, or past it (the zero lies
+    /// between `p` and it), or short of it.
+    fn newton(&self) -> DVec3 {
+        self.p + self.dir * self.guess
+    }
+
+    /// The next step, given `f` at [`Self::newton`].
+    fn after_newton(&self, fn_: f64) -> AfterNewton {
+        let newton = self.newton();
+        if fn_ == 0.0 {
+            AfterNewton::Done(newton)
+        } else if fn_.is_finite() && (fn_ < 0.0) != (self.fp < 0.0) {
+            AfterNewton::Bisect(Segment {
+                a: self.p,
+                b: newton,
+                fa: self.fp,
+                fb: fn_,
+            })
+        } else {
+            AfterNewton::Grow
+        }
+    }
+
+    /// Short of the zero: a bracket grown around the guess until the sign
+    /// changes, then bisected; `None` when it reaches `max_dist` both ways
+    /// first.
+    fn grow<E: Evaluator + ?Sized>(&self, f: &E, t: f64) -> Option<DVec3> {
+        let (guess, max_dist) = (self.guess, self.max_dist);
+        let mut step = (guess.abs() * 0.25).max(max_dist * 1e-6);
+        for _ in 0..40 {
+            let lo = (guess - step).max(-max_dist);
+            let hi = (guess + step).min(max_dist);
+            let (a, b) = (self.p + self.dir * lo, self.p + self.dir * hi);
+            let (fa, fb) = (f.point(at(a, t)), f.point(at(b, t)));
+            if fa.is_finite() && fb.is_finite() && (fa < 0.0) != (fb < 0.0) {
+                return Some(bisect(f, t, a, b, fa, fb));
+            }
+            if lo <= -max_dist && hi >= max_dist {
+                return None;
+            }
+            step *= 2.0;
+        }
+        None
+    }
 }

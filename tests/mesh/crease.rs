@@ -199,17 +199,30 @@ fn a_union_of_balls_keeps_its_crease_circle() {
         "the worst triangle got worse"
     );
     // Feature points on the crease circle x = 0, r = 0.4 (circumference
-    // 2.5, cells 1/32), within a tenth of a cell.
-    let features = &sharp.positions[plain.positions.len()..];
-    assert_eq!(features.len(), rs.crease_vertices);
-    assert!(features.len() >= 40, "{} feature points", features.len());
-    for p in features {
-        let ring = (p.x * p.x + ((p.y * p.y + p.z * p.z).sqrt() - 0.4).powi(2)).sqrt();
-        assert!(
-            ring < 0.1 / 32.0,
-            "feature point {p} is {ring} off the crease"
-        );
-    }
+    // 2.5, cells 1/32), within a tenth of a cell: every one of them, and
+    // hardly any vertex of the plain mesh.
+    let ring = |p: &DVec3| (p.x * p.x + ((p.y * p.y + p.z * p.z).sqrt() - 0.4).powi(2)).sqrt();
+    let on_ring = |m: &Mesh| m.positions.iter().filter(|p| ring(p) < 0.1 / 32.0).count();
+    assert_eq!(
+        rs.crease_vertices,
+        sharp.positions.len() - plain.positions.len()
+    );
+    assert!(
+        rs.crease_vertices >= 40,
+        "{} feature points",
+        rs.crease_vertices
+    );
+    assert!(
+        on_ring(&sharp) >= rs.crease_vertices,
+        "{} vertices on the crease for {} feature points",
+        on_ring(&sharp),
+        rs.crease_vertices
+    );
+    assert!(
+        on_ring(&plain) * 4 < rs.crease_vertices,
+        "{}",
+        on_ring(&plain)
+    );
 }
 
 #[test]

@@ -166,6 +166,58 @@ fn chord_splits_keep_the_mesh_and_bring_midpoints_within_the_tolerance() {
     );
 }
 
+/// After its first round, [`split_edges`] measures only the edges with a
+/// new vertex for an end (the others, with their ends, are as the round
+/// before measured them): the same mesh, bit for bit, as rounds of
+/// [`split_round`] that measure every edge, on a torus and on a `min` of
+/// two tori, split in at least two rounds each.
+///
+/// [`split_edges`]: isoc::mesher::chord::split_edges
+/// [`split_round`]: isoc::mesher::chord::split_round
+#[test]
+fn later_chord_rounds_measure_only_new_edges_and_split_the_same() {
+    use isoc::mesher::chord::{ROUNDS, split_edges, split_round};
+    let sources = [
+        "domain [-1.5, 1.5]^3; surface (sqrt(x^2 + y^2) - 1)^2 + z^2 - 0.09;",
+        "domain [-2.6, 2.6], [-1.5, 1.5], [-0.6, 0.6];
+         fn torus(x, y, z) = (sqrt(x^2 + y^2) - 1)^2 + z^2 - 0.09;
+         surface min(torus(x - 1.15, y, z), torus(x + 1.15, y, z));",
+    ];
+    for src in sources {
+        let s = surface(src);
+        let (mesh, _) = mesh_at(
+            &s,
+            OctreeOptions {
+                max_level: 5,
+                chord: None,
+                ..OctreeOptions::default()
+            },
+        );
+        let tau = 1e-3;
+        let (mut fast, mut full) = (mesh.clone(), mesh);
+        let (mut ff, mut fu) = (Vec::new(), Vec::new());
+        let n = split_edges(&mut fast, &mut ff, &s, 0.0, tau, &isoc::Cancel::new())
+            .expect("never cancelled");
+        let mut rounds = Vec::new();
+        for _ in 0..ROUNDS {
+            rounds.push(split_round(&mut full, &mut fu, &s, 0.0, tau));
+            if rounds.last() == Some(&0) {
+                break;
+            }
+        }
+        assert!(rounds.iter().filter(|&&r| r > 0).count() >= 2, "{rounds:?}");
+        assert_eq!(n, rounds.iter().sum::<usize>());
+        let bits = |m: &isoc::Mesh| -> Vec<[u64; 3]> {
+            m.positions
+                .iter()
+                .map(|p| p.to_array().map(f64::to_bits))
+                .collect()
+        };
+        assert_eq!(bits(&fast), bits(&full), "{src}");
+        assert_eq!(fast.triangles, full.triangles, "{src}");
+    }
+}
+
 #[test]
 fn chord_splits_leave_the_domain_boundary_closed() {
     // A ball cut by two faces of the domain: its boundary edges lie on

@@ -11,7 +11,9 @@ use std::sync::Mutex;
 use glam::DVec3;
 use isoc::eval::{Evaluator, GradEval, Reference};
 use isoc::interval::{DecInterval, Interval};
-use isoc::roots::{Segment, bisect, bisect_batch, line_zero, project, project_along};
+use isoc::roots::{
+    Segment, bisect, bisect_batch, line_zero, project, project_along, project_along_batch,
+};
 use isoc::{CompileOptions, Surface};
 
 const FUNCTIONS: [&str; 4] = [
@@ -267,6 +269,49 @@ fn projection_lands_on_the_gradient_line_within_reach() {
             assert_eq!(project(&s, 0.0, p, 0.1), None, "{p}");
         }
     }
+}
+
+/// Lock-step projection ([`project_along_batch`]) against the scalar
+/// [`project_along`], through the JIT and the reference interpreters: from
+/// random points of every function's domain, with reaches from a
+/// thousandth of the domain to all of it (so that Newton's point lands on
+/// the surface, past it, short of it, and nothing is within reach), every
+/// result, `None` included, is the scalar one bit for bit; and both
+/// outcomes (a zero, none within reach) occur over a thousand times.
+#[test]
+fn batch_projection_is_scalar_projection_bit_for_bit() {
+    let key = |r: Option<(DVec3, DVec3)>| r.map(|(q, g)| (bits(q), bits(g)));
+    let (mut found, mut none) = (0, 0);
+    for (fi, src) in FUNCTIONS.iter().enumerate() {
+        let s = Surface::compile(src, "roots.iso", &CompileOptions::default()).expect("compiles");
+        let reference = Reference(s.program.clone());
+        let d = s.domain;
+        let mut rng = Rng(41 + fi as u64);
+        let size = (0..3).map(|k| d.hi[k] - d.lo[k]).fold(0.0, f64::max);
+        let starts: Vec<(DVec3, f64)> = (0..800)
+            .map(|i| {
+                let p = DVec3::from_array(std::array::from_fn(|k| {
+                    d.lo[k] + (d.hi[k] - d.lo[k]) * rng.unit()
+                }));
+                (p, size * [1e-3, 1e-2, 0.1, 1.0][i % 4])
+            })
+            .collect();
+        for (name, f) in [("jit", &s as &dyn Evaluator), ("reference", &reference)] {
+            let got = project_along_batch(f, 0.0, &starts);
+            assert_eq!(got.len(), starts.len());
+            for (i, (&(p, reach), r)) in starts.iter().zip(&got).enumerate() {
+                let want = project_along(f, 0.0, p, reach);
+                assert_eq!(
+                    key(*r),
+                    key(want),
+                    "function {fi} ({name}), start {i}: {p} within {reach}"
+                );
+                if r.is_some() { found += 1 } else { none += 1 }
+            }
+        }
+        assert!(project_along_batch(&s, 0.0, &[]).is_empty());
+    }
+    assert!(found > 1000 && none > 1000, "found {found}, none {none}");
 }
 
 /// `line_zero` finds the zero nearest to the start along a line (either
