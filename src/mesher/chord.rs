@@ -5,7 +5,10 @@
 //! # Contract
 //!
 //! A round measures every edge's midpoint by its first-order distance
-//! `|f| / ‖∇f‖` to the surface, splits the edges above the tolerance whose
+//! `|f| / ‖∇f‖` to the surface, splits the edges above the tolerance (a
+//! [`Chord`]: its base, plus a share of the sagitta a uniform mesher's
+//! chord has on the curvature `turn / length` the normals at the edge's
+//! ends show) whose
 //! midpoint projects onto `f = 0` within a quarter of the edge's length,
 //! onto the sheet of the edge's ends (the normal there agrees with both
 //! ends' normals), and
@@ -45,6 +48,8 @@ use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::mesh::origin::Origins;
 use crate::mesh::{Mesh, Star};
+use crate::octree::Chord;
+use crate::octree::criteria::turn;
 use crate::roots::project_along_batch;
 
 /// Rounds of splitting (each at most halves an edge).
@@ -57,7 +62,8 @@ pub const ROUNDS: usize = 3;
 const REACH: f64 = 0.25;
 
 /// Splits, in up to [`ROUNDS`] rounds, the edges of `mesh` whose midpoint
-/// stands farther than `tau` from `f(·, t) = 0`; `feature` flags the
+/// stands farther than `tau` (at the edge's curvature: [`Chord::at`]) from
+/// `f(·, t) = 0`; `feature` flags the
 /// crease vertices (extended with `false` for the new ones). Returns how
 /// many edges were split, or [`Cancelled`] when `cancel` was cancelled
 /// before a round (the rounds done are kept). See the module doc.
@@ -66,7 +72,7 @@ pub fn split_edges<E: Evaluator + ?Sized>(
     feature: &mut Vec<bool>,
     f: &E,
     t: f64,
-    tau: f64,
+    tau: Chord,
     cancel: &Cancel,
 ) -> Result<usize, Cancelled> {
     split_edges_in(mesh, feature, None, f, t, tau, cancel)
@@ -80,7 +86,7 @@ pub fn split_edges_in<E: Evaluator + ?Sized>(
     mut origins: Option<&mut Origins>,
     f: &E,
     t: f64,
-    tau: f64,
+    tau: Chord,
     cancel: &Cancel,
 ) -> Result<usize, Cancelled> {
     let (mut total, mut fresh) = (0, 0);
@@ -106,7 +112,7 @@ pub fn split_round<E: Evaluator + ?Sized>(
     feature: &mut Vec<bool>,
     f: &E,
     t: f64,
-    tau: f64,
+    tau: Chord,
 ) -> usize {
     split_round_in(mesh, feature, None, f, t, tau)
 }
@@ -120,7 +126,7 @@ pub fn split_round_in<E: Evaluator + ?Sized>(
     origins: Option<(&mut Origins, u32)>,
     f: &E,
     t: f64,
-    tau: f64,
+    tau: Chord,
 ) -> usize {
     split_round_from(mesh, feature, origins, f, t, tau, 0)
 }
@@ -133,7 +139,7 @@ fn split_round_from<E: Evaluator + ?Sized>(
     origins: Option<(&mut Origins, u32)>,
     f: &E,
     t: f64,
-    tau: f64,
+    tau: Chord,
     fresh: u32,
 ) -> usize {
     let part = origins.as_ref().map(|(o, _)| &**o);
@@ -159,7 +165,7 @@ fn splits<E: Evaluator + ?Sized>(
     part: Option<&Origins>,
     f: &E,
     t: f64,
-    tau: f64,
+    tau: Chord,
     fresh: u32,
 ) -> Vec<((u32, u32), DVec3, DVec3)> {
     let edges = inner_edges(mesh, feature, part, fresh);
@@ -177,7 +183,11 @@ fn splits<E: Evaluator + ?Sized>(
                 .zip(mids)
                 .zip(measured)
                 // NaN (no gradient) is not a measurement: no split.
-                .filter(|(_, (v, g))| v.abs() / g.length() > tau)
+                .filter(|&((&(a, b), _), (v, g))| {
+                    let (a, b) = (a as usize, b as usize);
+                    let turn = turn(n[a].to_array(), n[b].to_array());
+                    v.abs() / g.length() > tau.at(turn, p[a].distance(p[b]))
+                })
                 .map(|((&(a, b), mid), _)| {
                     let reach = REACH * p[a as usize].distance(p[b as usize]);
                     ((a, b), (mid, reach))

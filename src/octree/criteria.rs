@@ -241,6 +241,67 @@ pub(crate) fn normal_spread(grad: [Interval; 3]) -> f64 {
     widest
 }
 
+/// The chord tolerance of faithful `--level` at a place on the surface:
+/// `base` plus a share of the chord error that a uniform mesher with cells
+/// of side `cell` has there. A chord of length `cell` on a surface whose
+/// normal turns by `turn` over a length `length` (curvature
+/// `κ = turn / length`) stands `κ·cell²/8` off it; the tolerance allows
+/// [`CURVATURE_SHARE`] of that on top of `base`. Where the surface is flat
+/// it is `base`; where it is curved it stays below the uniform mesher's own
+/// chord error there plus `base` (SPEC §2: no worse than a uniform mesher
+/// at the same depth).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Chord {
+    /// The tolerance on a flat piece (domain units).
+    pub base: f64,
+    /// The side of the uniform mesher's cells (domain units); 0 for a
+    /// tolerance that does not depend on the curvature.
+    pub cell: f64,
+}
+
+/// The share of a uniform mesher's chord error `κ·cell²/8` that
+/// [`Chord::at`] adds to the base tolerance: two thirds, so the local
+/// tolerance is `base + κ·cell²/12`. Measured against Fidget at depth 8
+/// (`docs/faithful.md`): with 1/12 every surface tried keeps its chord
+/// error within 0.9× Fidget's; with 0.15 the chairs' rose to 1.3×.
+pub const CURVATURE_SHARE: f64 = 2.0 / 3.0;
+
+impl Chord {
+    /// A tolerance of `base` everywhere.
+    pub fn uniform(base: f64) -> Self {
+        Chord { base, cell: 0.0 }
+    }
+
+    /// The tolerance where the unit normal turns by the angle `turn` over
+    /// the distance `length` (`base` where either is not a positive finite
+    /// number).
+    pub fn at(&self, turn: f64, length: f64) -> f64 {
+        let kappa = turn / length;
+        if kappa.is_finite() && kappa > 0.0 {
+            self.base + CURVATURE_SHARE * kappa * self.cell * self.cell / 8.0
+        } else {
+            self.base
+        }
+    }
+
+    /// The tolerance scaled by `k` (its base and its curvature share).
+    pub fn times(&self, k: f64) -> Self {
+        Chord {
+            base: k * self.base,
+            cell: k.sqrt() * self.cell,
+        }
+    }
+}
+
+/// The angle between the unit vectors `a` and `b`.
+pub fn turn(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3)
+        .map(|c| a[c] * b[c])
+        .sum::<f64>()
+        .clamp(-1.0, 1.0)
+        .acos()
+}
+
 /// An estimate of the chord error (distance from the surface to the
 /// triangles' centroids and edge midpoints) of a mesh through a cell of
 /// side `side`, from the gradients of `F` at the cell's corners: where the
@@ -269,4 +330,47 @@ pub(crate) fn chord_error(side: f64, grads: &[[f64; 3]]) -> f64 {
         }
     }
     side * least.clamp(-1.0, 1.0).acos() / 8.0
+}
+
+/// Whether a cell of side `side` with the corner gradients `grads` is
+/// within the chord tolerance `tol` ([`chord_error`] against
+/// [`Chord::at`] for the turn across the cell).
+pub(crate) fn chord_within(side: f64, grads: &[[f64; 3]], tol: &Chord) -> bool {
+    let e = chord_error(side, grads);
+    // The largest turn between two corners, back from the estimate.
+    e <= tol.at(8.0 * e / side, side)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// On a flat piece the tolerance is the base; on a sphere of radius
+    /// `r` (the normal turns by `s / r` over a length `s`, whatever `s`)
+    /// it adds two thirds of the sagitta `cell² / 8r` of a chord one cell
+    /// long; scaled, both parts scale; a degenerate turn or length gives
+    /// the base.
+    #[test]
+    fn the_chord_tolerance_adds_a_share_of_the_uniform_sagitta() {
+        let tol = Chord {
+            base: 0.01,
+            cell: 0.1,
+        };
+        assert_eq!(tol.at(0.0, 0.3), 0.01);
+        for r in [0.05, 0.5, 5.0] {
+            let sagitta = tol.cell * tol.cell / (8.0 * r);
+            for s in [0.01, 0.1, 1.0] {
+                let want = 0.01 + 2.0 / 3.0 * sagitta;
+                assert!((tol.at(s / r, s) - want).abs() < 1e-15, "r {r}, s {s}");
+                let scaled = tol.times(4.0).at(s / r, s);
+                assert!((scaled - 4.0 * want).abs() < 1e-15);
+            }
+        }
+        for (turn, length) in [(f64::NAN, 1.0), (1.0, 0.0), (0.5, f64::NAN)] {
+            assert_eq!(tol.at(turn, length), 0.01, "{turn} over {length}");
+        }
+        assert_eq!(Chord::uniform(0.02).at(3.0, 0.1), 0.02);
+        let right = turn([1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        assert!((right - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+    }
 }

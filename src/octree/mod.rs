@@ -95,7 +95,7 @@ use crate::eval::{Evaluator, Reference, WHOLE, WHOLE_GRAD, prune};
 use crate::geometry::Bounds;
 use crate::interval::Interval;
 use crate::ir::Program;
-pub use criteria::TopologyTest;
+pub use criteria::{Chord, TopologyTest};
 pub use field::Field;
 pub use octant::Octant;
 
@@ -223,14 +223,17 @@ pub struct OctreeOptions {
     pub t: f64,
     /// Prune the program per subtree (see the module doc's "Pruning").
     pub prune: bool,
-    /// Faithful `--level` (SPEC §2): the chord tolerance, in sides of a
-    /// maximal-level cell (the smallest side of Ω over `2^max_level`;
+    /// Faithful `--level` (SPEC §2): the chord tolerance on a flat piece,
+    /// in sides of a maximal-level cell (the smallest side of Ω over
+    /// `2^max_level`); where the surface is curved the tolerance adds a
+    /// share of a uniform mesher's chord error there ([`Chord`],
     /// [`OctreeOptions::chord_tolerance`] in domain units). Below the
     /// maximal level, a cell that passes the other criteria is subdivided
     /// while its estimated chord error ([`criteria::chord_error`]) exceeds
-    /// `OCTREE_SLACK` times it; the mesher then splits the edges still
-    /// farther than it (`mesher::chord`). `None`: the geometry criterion
-    /// `k_max` alone (the adaptive minimum, `--coarse`).
+    /// `OCTREE_SLACK` times the tolerance at the turn of the normals across
+    /// it; the mesher then splits the edges still farther than the
+    /// tolerance at theirs (`mesher::chord`). `None`: the geometry
+    /// criterion `k_max` alone (the adaptive minimum, `--coarse`).
     pub chord: Option<f64>,
 }
 
@@ -250,13 +253,18 @@ impl Default for OctreeOptions {
 
 impl OctreeOptions {
     /// The chord tolerance [`OctreeOptions::chord`] in domain units: its
-    /// share of the smallest side of a maximal-level cell of `domain`.
-    pub fn chord_tolerance(&self, domain: Bounds) -> Option<f64> {
+    /// share of the smallest side of a maximal-level cell of `domain` on a
+    /// flat piece, more where the surface is curved ([`Chord`]).
+    pub fn chord_tolerance(&self, domain: Bounds) -> Option<Chord> {
         let side = (0..3)
             .map(|k| domain.hi[k] - domain.lo[k])
             .fold(f64::INFINITY, f64::min);
         let level = self.max_level.min(MAX_LEVEL);
-        self.chord.map(|c| c * side / (1u64 << level) as f64)
+        let cell = side / (1u64 << level) as f64;
+        self.chord.map(|c| Chord {
+            base: c * cell,
+            cell,
+        })
     }
 }
 
@@ -265,15 +273,16 @@ impl OctreeOptions {
 /// ([`crate::mesher::chord`]) correct the last factor below a level.
 const OCTREE_SLACK: f64 = 4.0;
 
-/// The default chord tolerance of [`OctreeOptions::chord`], in sides of a
-/// maximal-level cell (calibrated against Fidget at depth 8:
-/// `docs/faithful.md`).
+/// The default chord tolerance of [`OctreeOptions::chord`] on a flat
+/// piece, in sides of a maximal-level cell (calibrated against Fidget at
+/// depth 8: `docs/faithful.md`).
 pub const DEFAULT_CHORD: f64 = 0.035;
 
 /// The verdicts on `cells` (all at one level, evaluated by `f`) after the
 /// cell-local criteria beyond [`examine`]'s one enclosure: above the last
-/// level, with a chord tolerance `tau` (domain units), a cell passes only if
-/// its estimated chord error is within it ([`chord_within`]); a cell that
+/// level, with a chord tolerance `tau` (already scaled by the slack), a
+/// cell passes only if its estimated chord error is within it
+/// ([`chord_within`]); a cell that
 /// failed the topology or geometry test (at the last level: the topology
 /// test) gets a second look from pieces of it ([`pieces_test`]) — above
 /// the last level only if its chord error would let it be a leaf.
@@ -282,7 +291,7 @@ fn review<E: Evaluator + ?Sized>(
     cells: &[[Interval; 4]],
     verdicts: &mut [criteria::Verdict],
     opts: &OctreeOptions,
-    tau: Option<f64>,
+    tau: Option<Chord>,
     last_level: bool,
 ) {
     // Smooth: pieces seldom prove anything across a crease.
@@ -293,7 +302,7 @@ fn review<E: Evaluator + ?Sized>(
             let judged: Vec<usize> = (0..cells.len())
                 .filter(|&i| verdicts[i].passed(false) || second(&verdicts[i]))
                 .collect();
-            let within = chord_within(f, cells, &judged, tau, opts.t);
+            let within = chord_within(f, cells, &judged, &tau, opts.t);
             // A cell within the tolerance keeps its verdict: it gets the
             // second look if it needs one.
             judged
@@ -311,13 +320,14 @@ fn review<E: Evaluator + ?Sized>(
 }
 
 /// Whether each of `cells[i]` for `i` in `which` has an estimated chord
-/// error ([`criteria::chord_error`]) within `tau` (domain units): one
-/// point-gradient batch at the corners of those cells.
+/// error ([`criteria::chord_error`]) within `tau` at the turn of the
+/// normals across it ([`Chord::at`]): one point-gradient batch at the
+/// corners of those cells.
 fn chord_within<E: Evaluator + ?Sized>(
     f: &E,
     cells: &[[Interval; 4]],
     which: &[usize],
-    tau: f64,
+    tau: &Chord,
     t: f64,
 ) -> Vec<bool> {
     let lo = |i: usize| DVec3::new(cells[i][0].lo, cells[i][1].lo, cells[i][2].lo);
@@ -334,7 +344,7 @@ fn chord_within<E: Evaluator + ?Sized>(
         .map(|(&i, at)| {
             let grads: Vec<[f64; 3]> = at.iter().map(|(_, g)| *g).collect();
             let side = (hi(i) - lo(i)).min_element();
-            criteria::chord_error(side, &grads) <= tau
+            criteria::chord_within(side, &grads, tau)
         })
         .collect()
 }
@@ -832,8 +842,9 @@ struct Builder<'a, E: ?Sized> {
     store: AtomicU64,
     /// Of which the leaves' (kept to the end).
     leaf_live: u64,
-    /// The chord tolerance ([`OctreeOptions::chord`]) in domain units.
-    tau: Option<f64>,
+    /// The chord tolerance ([`OctreeOptions::chord_tolerance`]) times
+    /// `OCTREE_SLACK`.
+    tau: Option<Chord>,
     /// Ambiguous leaves at the maximal level, with their tapes, for the
     /// proof search.
     ambiguous: Vec<(u32, Tape)>,
@@ -869,7 +880,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             interpret: false,
             skip: false,
         };
-        let tau = opts.chord_tolerance(domain).map(|c| OCTREE_SLACK * c);
+        let tau = opts.chord_tolerance(domain).map(|c| c.times(OCTREE_SLACK));
         let b = Builder {
             f,
             opts,

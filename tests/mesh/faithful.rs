@@ -138,7 +138,7 @@ fn chord_splits_keep_the_mesh_and_bring_midpoints_within_the_tolerance() {
         &mut feature,
         &s,
         0.0,
-        tau,
+        isoc::octree::Chord::uniform(tau),
         &isoc::Cancel::new(),
     )
     .expect("never cancelled");
@@ -193,7 +193,11 @@ fn later_chord_rounds_measure_only_new_edges_and_split_the_same() {
                 ..OctreeOptions::default()
             },
         );
-        let tau = 1e-3;
+        // Curved: the tolerance depends on the edge (and its ends' normals).
+        let tau = isoc::octree::Chord {
+            base: 1e-3,
+            cell: 0.05,
+        };
         let (mut fast, mut full) = (mesh.clone(), mesh);
         let (mut ff, mut fu) = (Vec::new(), Vec::new());
         let n = split_edges(&mut fast, &mut ff, &s, 0.0, tau, &isoc::Cancel::new())
