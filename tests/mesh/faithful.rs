@@ -14,7 +14,7 @@
 use glam::DVec3;
 use isoc::{MeshOptions, OctreeOptions};
 
-use crate::support::surface;
+use crate::support::{position_bits, surface};
 
 /// The 99.9th percentile of `dist` over the centroids and edge midpoints.
 fn chord_p999(mesh: &isoc::Mesh, dist: &dyn Fn(DVec3) -> f64) -> f64 {
@@ -211,13 +211,7 @@ fn later_chord_rounds_measure_only_new_edges_and_split_the_same() {
         }
         assert!(rounds.iter().filter(|&&r| r > 0).count() >= 2, "{rounds:?}");
         assert_eq!(n, rounds.iter().sum::<usize>());
-        let bits = |m: &isoc::Mesh| -> Vec<[u64; 3]> {
-            m.positions
-                .iter()
-                .map(|p| p.to_array().map(f64::to_bits))
-                .collect()
-        };
-        assert_eq!(bits(&fast), bits(&full), "{src}");
+        assert_eq!(position_bits(&fast), position_bits(&full), "{src}");
         assert_eq!(fast.triangles, full.triangles, "{src}");
     }
 }

@@ -10,7 +10,7 @@ use isoc::mesh::{Mesh, topology};
 use isoc::mesher::{self, MeshOptions, MeshReport};
 use isoc::octree::{OctreeOptions, TopologyTest};
 
-use crate::support::surface;
+use crate::support::{position_bits, surface};
 
 fn run(s: &Surface, level: u8, test: TopologyTest, smooth: usize) -> (Mesh, MeshReport) {
     let opts = MeshOptions {
@@ -80,11 +80,7 @@ fn check_closed(name: &str, s: &Surface, mesh: &Mesh, r: &MeshReport, genera: &[
             "{name}: zero-area triangle"
         );
     }
-    let mut pos: Vec<[u64; 3]> = mesh
-        .positions
-        .iter()
-        .map(|p| p.to_array().map(f64::to_bits))
-        .collect();
+    let mut pos = position_bits(mesh);
     pos.sort();
     let n = pos.len();
     pos.dedup();
@@ -410,13 +406,7 @@ fn pruning_changes_nothing() {
     let (pm, pr) = mesher::mesh_with(&reference, s.domain, &opts(true), &|_| {});
     let (fm, fr) = mesher::mesh_with(&reference, s.domain, &opts(false), &|_| {});
     assert_eq!(pm.triangles, fm.triangles, "connectivity");
-    let bits = |m: &Mesh| -> Vec<[u64; 3]> {
-        m.positions
-            .iter()
-            .map(|p| p.to_array().map(f64::to_bits))
-            .collect()
-    };
-    assert_eq!(bits(&pm), bits(&fm), "vertex positions");
+    assert_eq!(position_bits(&pm), position_bits(&fm), "vertex positions");
     assert_eq!(pr.octree, fr.octree, "octree");
     assert_eq!(pr.topology, fr.topology);
     let (jm, jr) = mesher::mesh(&s, &opts(false), &|_| {});

@@ -23,6 +23,15 @@ use isoc::interval::Interval;
 use isoc::ir::{BinOp, Const, Op, Program, UnOp, Value, Var};
 use proptest::prelude::*;
 
+/// The bits of every vertex position of `m`, in vertex order (meshes that
+/// must be equal bit for bit; duplicated positions).
+pub fn position_bits(m: &isoc::Mesh) -> Vec<[u64; 3]> {
+    m.positions
+        .iter()
+        .map(|p| p.to_array().map(f64::to_bits))
+        .collect()
+}
+
 // ---------------------------------------------------------------- programs
 
 /// A constant that stands for a real number: exact floats, or a rounded
