@@ -73,6 +73,21 @@ impl DynMesh {
         m
     }
 
+    /// From an indexed mesh vertex for vertex (vertex `i` stays `i`, used
+    /// or not, so per-vertex data of the caller stays indexed alike); its
+    /// normals become the initial gradients.
+    pub fn indexed(mesh: &Mesh) -> DynMesh {
+        let mut m = DynMesh::default();
+        for (i, &p) in mesh.positions.iter().enumerate() {
+            let g = mesh.normals.get(i).copied().unwrap_or(DVec3::ZERO);
+            m.add_vertex(p, g);
+        }
+        for &tri in &mesh.triangles {
+            m.add_tri(tri);
+        }
+        m
+    }
+
     /// Live triangles.
     pub fn live_tris(&self) -> impl Iterator<Item = (u32, [u32; 3])> + '_ {
         self.tris

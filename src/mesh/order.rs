@@ -93,6 +93,14 @@ pub fn permute<T: Copy + Default>(data: &mut Vec<T>, new_of_old: &[u32]) {
     *data = out;
 }
 
+/// Keeps `data[i]` where `keep[i]`, in order (a vertex filter such as
+/// [`crate::mesher::coarsen::coarsen`] returns). Empty data stays empty;
+/// entries past the end of `keep` are dropped.
+pub fn retain<T>(data: &mut Vec<T>, keep: &[bool]) {
+    let mut k = keep.iter();
+    data.retain(|_| k.next().copied().unwrap_or(false));
+}
+
 /// The Morton key of each point, on a grid of `2^BITS` cells per side over
 /// the points' bounding box (0 for non-finite points).
 fn morton_keys(points: &[DVec3]) -> Vec<u64> {

@@ -63,10 +63,8 @@ impl Origins {
 
     /// Keeps the vertices flagged in `keep`, in order.
     pub fn retain(&mut self, keep: &[bool]) {
-        let mut k = keep.iter();
-        self.ids.retain(|_| k.next().copied().unwrap_or(false));
-        let mut k = keep.iter();
-        self.sides.retain(|_| k.next().copied().unwrap_or(false));
+        super::order::retain(&mut self.ids, keep);
+        super::order::retain(&mut self.sides, keep);
     }
 }
 

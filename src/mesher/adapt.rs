@@ -118,7 +118,7 @@ const SETTLED: f64 = 0.85;
 
 /// The least cosine between a triangle's normal and ∇f at its corners
 /// that an unmeasured change may leave.
-const ALIGN: f64 = 0.5;
+pub(super) const ALIGN: f64 = 0.5;
 
 /// Flips are tried on the edges of triangles below this aspect ratio.
 const FLIP_BELOW: f64 = 0.9;
@@ -250,14 +250,7 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
     fn new(mesh: &Mesh, keep: &[bool], f: &'a E, t: f64, tol: f64) -> Self {
         // Vertex for vertex (not `DynMesh::from_mesh`, which renumbers):
         // `keep` and the ambiguity flags are indexed like `mesh`.
-        let mut m = DynMesh::default();
-        for (i, &p) in mesh.positions.iter().enumerate() {
-            let g = mesh.normals.get(i).copied().unwrap_or(DVec3::ZERO);
-            m.add_vertex(p, g);
-        }
-        for &tri in &mesh.triangles {
-            m.add_tri(tri);
-        }
+        let m = DynMesh::indexed(mesh);
         let n = mesh.positions.len();
         let mut ambiguous = mesh.ambiguous.clone();
         ambiguous.resize(n, false);

@@ -22,7 +22,8 @@
 //!   one triangle in the part, off ∂Ω) are pinned: both sides keep them
 //!   where extraction and the chord splits put them, so the seams stay
 //!   closed and 2-manifold; inside a brick the stages run as in a whole
-//!   run, on the brick's triangles only.
+//!   run, on the brick's triangles only (the collapses of
+//!   [`super::coarsen`] too: a seam vertex is never removed).
 //!
 //! # Limits
 //!
@@ -42,12 +43,12 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 
 use super::stitch::{Stitched, Stitcher};
-use super::{MeshOptions, MeshReport, Stage, Timings, chord, crease, ms, smooth, weld};
+use super::{MeshOptions, MeshReport, Stage, Timings, chord, coarsen, crease, ms, smooth, weld};
 use crate::cancel::{Cancel, Cancelled};
 use crate::dual;
 use crate::eval::Evaluator;
 use crate::geometry::Bounds;
-use crate::mesh::order::permute;
+use crate::mesh::order::{permute, retain};
 use crate::mesh::origin::{self, Origins};
 use crate::mesh::sink::Sink;
 use crate::mesh::{Mesh, topology};
@@ -218,6 +219,19 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
     cancel.check()?;
     progress(Stage::Smooth);
     let t0 = Instant::now();
+    if let Some(tau) = tau
+        && opts.smooth > 0
+    {
+        let on_seam = seam(&mesh, &origins);
+        let pinned: Vec<bool> = feature
+            .iter()
+            .zip(&on_seam)
+            .map(|(a, b)| *a || *b)
+            .collect();
+        let kept = coarsen::coarsen(&mut mesh, &pinned, &field, t, tau, cancel)?;
+        retain(&mut feature, &kept);
+        origins.retain(&kept);
+    }
     let on_seam = seam(&mesh, &origins);
     let moves = smooth::smooth_part(
         &mut mesh,

@@ -1,9 +1,10 @@
 //! The robust adaptive mesher end to end (Paiva et al. §4): octree →
 //! dual grid → dual marching cubes (MC33) with vertices bisected onto the
 //! surface → coincident vertices welded ([`weld`]) → sharp creases
-//! ([`crease`]) → chord splits ([`chord`]) → smoothing (edge flips and
-//! tangential relaxation) → a last chord round, and the weld again →
-//! report.
+//! ([`crease`]) → chord splits ([`chord`]) → with a chord tolerance and
+//! smoothing on, measured edge collapses ([`coarsen`]) → smoothing (edge
+//! flips and tangential relaxation) → a last chord round, and the weld
+//! again → report.
 //! The report's topology is computed from the mesh itself
 //! ([`crate::mesh::topology`]), never assumed.
 //!
@@ -18,6 +19,7 @@ use glam::DVec3;
 pub mod adapt;
 pub mod brick;
 pub mod chord;
+pub mod coarsen;
 pub mod crease;
 pub mod flip;
 pub mod report;
@@ -28,7 +30,7 @@ pub mod weld;
 use crate::cancel::{Cancel, Cancelled, uncancelled};
 use crate::eval::Evaluator;
 use crate::geometry::Bounds;
-use crate::mesh::order::permute;
+use crate::mesh::order::{permute, retain};
 use crate::mesh::{Mesh, quality, topology};
 use crate::octree::{Octree, OctreeOptions, OctreeStats, Refine};
 use crate::polygonize::extract;
@@ -277,6 +279,12 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     cancel.check()?;
     progress(Stage::Smooth);
     let t0 = Instant::now();
+    if let Some(tau) = opts.octree.chord_tolerance(domain)
+        && opts.smooth > 0
+    {
+        let kept = coarsen::coarsen(&mut mesh, &creases.feature, &field, t, tau, cancel)?;
+        retain(&mut creases.feature, &kept);
+    }
     let moves =
         smooth::smooth_keeping(&mut mesh, &field, t, opts.smooth, &creases.feature, cancel)?;
     if let Some(tau) = opts.octree.chord_tolerance(domain) {

@@ -10,6 +10,7 @@ mod support;
 
 mod adapt;
 mod bricks;
+mod coarsen;
 mod corpus_mesh;
 mod crease;
 mod csg;
