@@ -215,7 +215,7 @@ impl Coarsener {
             .iter()
             .take(TARGETS)
             .map(|&(_, k)| k)
-            .find(|&k| self.geometric(&around, k) && self.measured(f, t, r, k))?;
+            .find(|&k| self.geometric(&around, k) && self.measured(f, t, &around, k))?;
         let (pk, gk) = (self.m.pos[k as usize], self.m.grad[k as usize]);
         self.m.collapse(k, r, pk, gk);
         self.ambiguous[k as usize] |= self.ambiguous[r as usize];
@@ -237,10 +237,10 @@ impl Coarsener {
     }
 
     /// Whether every new edge's midpoint and new triangle's centroid of
-    /// collapsing `r` into `k` stands within its tolerance off `f(·, t) =
+    /// collapsing `around.r` into `k` stands within its tolerance off `f(·, t) =
     /// 0` (first order), with ∇f on its side.
-    fn measured<E: Evaluator + ?Sized>(&mut self, f: &E, t: f64, r: u32, k: u32) -> bool {
-        self.collect_samples(r, k);
+    fn measured<E: Evaluator + ?Sized>(&mut self, f: &E, t: f64, around: &Around, k: u32) -> bool {
+        self.collect_samples(around, k);
         self.pts.clear();
         self.pts.extend(self.samples.iter().map(|s| s.0.to_array()));
         self.values.clear();
@@ -255,15 +255,13 @@ impl Coarsener {
             })
     }
 
-    /// The points to measure for collapsing `r` into `k` (see
+    /// The points to measure for collapsing `around.r` into `k` (see
     /// [`Coarsener::measured`]) into `self.samples`.
-    fn collect_samples(&mut self, r: u32, k: u32) {
-        let (m, tau) = (&self.m, self.tau);
+    fn collect_samples(&mut self, around: &Around, k: u32) {
+        let (m, tau, r) = (&self.m, self.tau, around.r);
         let (pk, nk) = (m.pos[k as usize], m.grad[k as usize]);
         self.samples.clear();
-        self.ring.clear();
-        m.neighbours_into(r, &mut self.ring);
-        for &w in &self.ring {
+        for &(_, w) in &around.near {
             if w == k || m.adjacent(k, w) {
                 continue;
             }

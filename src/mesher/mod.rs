@@ -256,6 +256,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     cancel.check()?;
     progress(Stage::Polygonize);
     let t0 = Instant::now();
+    let tau = opts.octree.chord_tolerance(domain);
     let (mut mesh, ex, mut cell_of) = extract::extract(&tree, &field, t, &values, &active, cancel)?;
     weld::weld_coincident(&mut mesh, &mut cell_of);
     cancel.check()?;
@@ -269,7 +270,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     // the stages that add to the mesh.
     drop((values, active, cell_of));
     permute(&mut creases.feature, &mesh.reorder());
-    if let Some(tau) = opts.octree.chord_tolerance(domain) {
+    if let Some(tau) = tau {
         chord::split_edges(&mut mesh, &mut creases.feature, &field, t, tau, cancel)?;
         // The splits' vertices and triangles came last: in order again.
         permute(&mut creases.feature, &mesh.reorder());
@@ -279,7 +280,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     cancel.check()?;
     progress(Stage::Smooth);
     let t0 = Instant::now();
-    if let Some(tau) = opts.octree.chord_tolerance(domain)
+    if let Some(tau) = tau
         && opts.smooth > 0
     {
         let kept = coarsen::coarsen(&mut mesh, &creases.feature, &field, t, tau, cancel)?;
@@ -287,7 +288,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     }
     let moves =
         smooth::smooth_keeping(&mut mesh, &field, t, opts.smooth, &creases.feature, cancel)?;
-    if let Some(tau) = opts.octree.chord_tolerance(domain) {
+    if let Some(tau) = tau {
         // Relaxation moves vertices along the surface and may stretch an
         // edge past the tolerance again: one more round on the result.
         chord::split_round(&mut mesh, &mut creases.feature, &field, t, tau);
