@@ -95,8 +95,13 @@ impl Evaluator for Kernels {
 /// Boxes as the batch kernels read them: 8 f64 per box,
 /// `[x.lo, x.hi, y.lo, y.hi, z.lo, z.hi, t.lo, t.hi]`.
 fn flatten_boxes(boxes: &[[Interval; 4]]) -> Vec<f64> {
-    boxes
-        .iter()
-        .flat_map(|b| b.iter().flat_map(|i| [i.lo, i.hi]))
-        .collect()
+    // A loop over fixed-size arrays: a nested `flat_map` has no size hint
+    // and cost as much as a cheap kernel.
+    let mut out = Vec::with_capacity(8 * boxes.len());
+    for b in boxes {
+        out.extend_from_slice(&[
+            b[0].lo, b[0].hi, b[1].lo, b[1].hi, b[2].lo, b[2].hi, b[3].lo, b[3].hi,
+        ]);
+    }
+    out
 }

@@ -334,14 +334,18 @@ struct Around {
 impl Around {
     fn new(m: &DynMesh, r: u32) -> Around {
         let (pr, nr) = (m.pos[r as usize], m.grad[r as usize].to_array());
-        let mut near: Small<(f64, u32)> = Small::new();
-        for &i in &m.star[r as usize] {
-            for w in m.tris[i as usize] {
-                if w != r && !near.iter().any(|x| x.1 == w) {
-                    near.push((pr.distance_squared(m.pos[w as usize]), w));
-                }
-            }
-        }
+        // A closed disk (only removable vertices are visited): each
+        // neighbour follows `r` in exactly one triangle of its star.
+        let near: Small<(f64, u32)> = m.star[r as usize]
+            .iter()
+            .map(|&i| {
+                let tri = m.tris[i as usize];
+                let at = tri.iter().position(|&v| v == r).expect("r's star holds r");
+                let w = tri[(at + 1) % 3];
+                (pr.distance_squared(m.pos[w as usize]), w)
+            })
+            .collect();
+        let mut near = near;
         near.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         let kappa = near
             .iter()

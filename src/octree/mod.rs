@@ -342,7 +342,7 @@ fn chord_within<E: Evaluator + ?Sized>(
         .iter()
         .zip(at.chunks_exact(8))
         .map(|(&i, at)| {
-            let grads: Vec<[f64; 3]> = at.iter().map(|(_, g)| *g).collect();
+            let grads: [[f64; 3]; 8] = std::array::from_fn(|c| at[c].1);
             let side = (hi(i) - lo(i)).min_element();
             criteria::chord_within(side, &grads, tau)
         })
@@ -369,8 +369,10 @@ fn pieces_test<E: Evaluator + ?Sized>(
         if open.is_empty() {
             return;
         }
-        let pieces: Vec<[Interval; 4]> =
-            open.iter().flat_map(|&i| pieces_of(&cells[i], n)).collect();
+        let mut pieces = Vec::with_capacity(open.len() * n * n * n);
+        for &i in &open {
+            push_pieces(&cells[i], n, &mut pieces);
+        }
         let mut grads = vec![WHOLE_GRAD; pieces.len()];
         f.grad_batch(&pieces, &mut grads);
         for (&i, of_cell) in open.iter().zip(grads.chunks_exact(n * n * n)) {
@@ -382,25 +384,44 @@ fn pieces_test<E: Evaluator + ?Sized>(
 /// The pieces per axis of [`pieces_test`]'s successive looks.
 const PIECES: [usize; 2] = [2, 4];
 
-/// The `n³` boxes of a cell cut in `n` along each axis, which cover it.
-fn pieces_of(cell: &[Interval; 4], n: usize) -> Vec<[Interval; 4]> {
-    let cut = |k: usize, j: usize| {
+/// Appends to `out` the `n³` boxes of a cell cut in `n` along each axis,
+/// which cover it.
+fn push_pieces(cell: &[Interval; 4], n: usize, out: &mut Vec<[Interval; 4]>) {
+    // The cuts along each axis: the cell's own bounds at both ends.
+    let cuts = |k: usize| {
         let (a, b) = (cell[k].lo, cell[k].hi);
-        if j == 0 {
-            a
-        } else if j == n {
-            b
-        } else {
-            a + (b - a) * (j as f64 / n as f64)
+        move |j: usize| match j {
+            0 => a,
+            j if j == n => b,
+            j => a + (b - a) * (j as f64 / n as f64),
         }
     };
-    let mut out = Vec::with_capacity(n * n * n);
-    for (i, j, k) in (0..n).flat_map(|i| (0..n).flat_map(move |j| (0..n).map(move |k| (i, j, k)))) {
-        let lo = DVec3::new(cut(0, i), cut(1, j), cut(2, k));
-        let hi = DVec3::new(cut(0, i + 1), cut(1, j + 1), cut(2, k + 1));
-        out.push(cell_input(lo, hi, cell[3].lo));
+    let (x, y, z) = (cuts(0), cuts(1), cuts(2));
+    let t = Interval {
+        lo: cell[3].lo,
+        hi: cell[3].lo,
+    };
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..n {
+                out.push([
+                    Interval {
+                        lo: x(i),
+                        hi: x(i + 1),
+                    },
+                    Interval {
+                        lo: y(j),
+                        hi: y(j + 1),
+                    },
+                    Interval {
+                        lo: z(k),
+                        hi: z(k + 1),
+                    },
+                    t,
+                ]);
+            }
+        }
     }
-    out
 }
 
 /// Counts gathered while building.
