@@ -47,3 +47,46 @@ pub(crate) fn normals_at<E: Evaluator + ?Sized>(f: &E, t: f64, pts: &[DVec3]) ->
         .map(|(_, g)| g.normalize_or_zero())
         .collect()
 }
+
+/// Where `f` has a kink exactly at a point (a `min` or `max` whose two
+/// sides tie there, as on a face two CSG primitives share), the gradient
+/// there is one side's, and may point into the solid. For every `i` with
+/// `normals[i]·outward[i] < 0` (`outward`: a direction in which `f`
+/// grows across the surface at `pts[i]`, such as the sign change a root
+/// was bracketed on), the normal is replaced by the one-sided gradient
+/// just outside `pts[i]` along `outward[i]` — or just inside — that
+/// agrees with it; it stays as it was when neither does. `outward` may be
+/// shorter than `pts` (the points past it keep their normals).
+pub(crate) fn orient_at_kinks<E: Evaluator + ?Sized>(
+    f: &E,
+    t: f64,
+    pts: &[DVec3],
+    normals: &mut [DVec3],
+    outward: &[DVec3],
+) {
+    let flipped: Vec<usize> = (0..outward.len())
+        .filter(|&i| normals[i].dot(outward[i]) < 0.0)
+        .collect();
+    if flipped.is_empty() {
+        return;
+    }
+    // A step far below any cell, far above the rounding of the point.
+    let step = |i: usize| {
+        let d = outward[i].normalize_or_zero();
+        d * (KINK_STEP * pts[i].abs().max_element().max(1.0))
+    };
+    let probes: Vec<DVec3> = flipped
+        .iter()
+        .flat_map(|&i| [pts[i] + step(i), pts[i] - step(i)])
+        .collect();
+    let sides = normals_at(f, t, &probes);
+    for (&i, pair) in flipped.iter().zip(sides.chunks_exact(2)) {
+        if let Some(&n) = pair.iter().find(|n| n.dot(outward[i]) > 0.0) {
+            normals[i] = n;
+        }
+    }
+}
+
+/// The probe distance of [`orient_at_kinks`], relative to the point's
+/// magnitude: about 4500 ulps.
+const KINK_STEP: f64 = 1e-12;

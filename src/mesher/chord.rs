@@ -45,7 +45,7 @@ use smallvec::SmallVec;
 
 use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
-use crate::eval::sample::grads_at;
+use crate::eval::sample::{grads_at, orient_at_kinks};
 use crate::mesh::origin::Origins;
 use crate::mesh::{Mesh, Star};
 use crate::octree::Chord;
@@ -202,13 +202,21 @@ fn splits<E: Evaluator + ?Sized>(
             // The gradient at each new vertex itself (its normal): on the
             // sheet of the edge's ends, not across a thin wall.
             let qs: Vec<DVec3> = projected.iter().map(|&(_, q)| q).collect();
+            let mut gs: Vec<DVec3> = grads_at(f, t, &qs).into_iter().map(|(_, g)| g).collect();
+            // Where two sides of a kink tie at the new vertex, the side
+            // the ends' normals agree with.
+            let outward: Vec<DVec3> = projected
+                .iter()
+                .map(|&((a, b), _)| n[a as usize] + n[b as usize])
+                .collect();
+            orient_at_kinks(f, t, &qs, &mut gs, &outward);
             projected
                 .into_iter()
-                .zip(grads_at(f, t, &qs))
-                .filter(|&(((a, b), _), (_, g))| {
+                .zip(gs)
+                .filter(|&(((a, b), _), g)| {
                     g.is_finite() && g.dot(n[a as usize]) > 0.0 && g.dot(n[b as usize]) > 0.0
                 })
-                .map(|((e, q), (_, g))| (e, q, g))
+                .map(|((e, q), g)| (e, q, g))
                 .collect::<Vec<_>>()
         })
         .collect()

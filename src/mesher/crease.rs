@@ -79,7 +79,7 @@ use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
 use crate::eval::Evaluator;
-use crate::eval::sample::grads_at;
+use crate::eval::sample::{grads_at, orient_at_kinks};
 use crate::mesh::Mesh;
 use crate::roots::project;
 
@@ -285,6 +285,18 @@ pub fn sharpen<E: Evaluator + ?Sized>(
     for (k, (_, g)) in grads_at(f, t, &new_points).into_iter().enumerate() {
         mesh.normals[n0 + k] = g.normalize_or_zero();
     }
+    // Outward at a feature point: along its patch's vertex normals (a
+    // tie of two sides there may give a gradient pointing inward).
+    let outward: Vec<DVec3> = candidates
+        .iter()
+        .map(|c| {
+            c.boundary
+                .iter()
+                .map(|&(a, _)| mesh.normals[a as usize])
+                .sum()
+        })
+        .collect();
+    orient_at_kinks(f, t, &new_points, &mut mesh.normals[n0..], &outward);
     let mut tris: Vec<[u32; 3]> = mesh
         .triangles
         .iter()

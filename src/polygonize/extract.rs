@@ -44,7 +44,7 @@ use rustc_hash::FxHashMap as HashMap;
 use crate::cancel::{Cancel, Cancelled};
 use crate::dual::{self, Corner, DualCell};
 use crate::eval::Evaluator;
-use crate::eval::sample::{normals_at, values_at};
+use crate::eval::sample::{normals_at, orient_at_kinks, values_at};
 use crate::mesh::Mesh;
 use crate::mesh::origin::{self, Origins};
 use crate::octree::{Leaf, Octree};
@@ -327,7 +327,9 @@ fn extract_in<E: Evaluator + ?Sized>(
     let ambiguous_leaf = |c: Corner| nodes[c.node as usize].leaf() == Some(Leaf::Ambiguous);
     // Edge keys sort before interior keys.
     let edges = keys.partition_point(|k| k.is_edge());
-    let mut placed: Vec<(DVec3, bool)> = keys[..edges]
+    // Per edge vertex, also the direction in which `f` grows along its
+    // edge.
+    let (mut placed, outward): (Vec<(DVec3, bool)>, Vec<DVec3>) = keys[..edges]
         .par_chunks(BATCH)
         .flat_map_iter(|chunk| {
             let segments: Vec<Segment> = chunk
@@ -343,12 +345,13 @@ fn extract_in<E: Evaluator + ?Sized>(
                 })
                 .collect();
             let ps = bisect_batch(f, t, &segments);
-            chunk.iter().zip(ps).map(move |(k, p)| {
+            chunk.iter().zip(ps).zip(segments).map(move |((k, p), s)| {
                 let (a, b) = k.ends();
-                (p, ambiguous_leaf(a) || ambiguous_leaf(b))
+                let up = (s.b - s.a) * (s.fb - s.fa).signum();
+                ((p, ambiguous_leaf(a) || ambiguous_leaf(b)), up)
             })
         })
-        .collect();
+        .unzip();
     placed.par_extend(keys[edges..].par_iter().map(|k| {
         let at = interiors
             .binary_search_by_key(k, |&(key, _)| key)
@@ -369,6 +372,18 @@ fn extract_in<E: Evaluator + ?Sized>(
         triangles,
     };
     mesh.normals = normals_at(f, t, &mesh.positions);
+    // Outward: along the edge's sign change for an edge vertex, along its
+    // triangles' normals (oriented outward by construction) for the rest.
+    let mut outward = outward;
+    outward.resize(mesh.positions.len(), DVec3::ZERO);
+    for tri in &mesh.triangles {
+        let p = tri.map(|v| mesh.positions[v as usize]);
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        for &v in tri.iter().filter(|&&v| v as usize >= edges) {
+            outward[v as usize] += n;
+        }
+    }
+    orient_at_kinks(f, t, &mesh.positions, &mut mesh.normals, &outward);
     let origins = if origins {
         origins_of(tree, active, &keys)
     } else {

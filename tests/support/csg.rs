@@ -773,6 +773,23 @@ pub fn mesh_and_check(s: &Surface, level: u8, plain: bool, reference: bool) -> O
 /// Tolerance of "on the surface", in finest cells times `|∇f|`.
 pub const ON_SURFACE: f64 = 1e-6;
 
+/// The vertices whose normal faces against their fan (the sum of their
+/// triangles' area vectors), more than 120° off it: at a kink where two
+/// CSG sides tie exactly at the vertex (a face two primitives share), the
+/// gradient there may be the inner side's, opposite the face, and it
+/// misleads every stage that reads normals. Not part of [`check_mesh`]:
+/// at a sharp crease a one-sided gradient may lie more than 90° off a
+/// lopsided fan (colonnade.vm at level 6: 94° and 104°).
+pub fn normals_against_fans(mesh: &Mesh) -> Vec<usize> {
+    let fan = fan_normals(mesh);
+    (0..mesh.positions.len())
+        .filter(|&i| {
+            let f = fan[i].normalize_or_zero();
+            mesh.normals.get(i).is_some_and(|n| n.dot(f) < -0.5)
+        })
+        .collect()
+}
+
 /// Shortest finest-cell side of `opts` over `domain`.
 fn finest_cell(opts: &MeshOptions, domain: &Bounds) -> f64 {
     (0..3)
