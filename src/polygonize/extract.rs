@@ -31,8 +31,12 @@
 //! in parallel), the ghost-corner values (one batch after the dual-grid
 //! walk has met them all), the edge vertices (lock-step bisection, one
 //! batch per step per chunk of edges) and the vertex normals
-//! ([`Evaluator::point_grad_batch`]). The projection of MC33's interior
-//! vertices ([`crate::roots::project`]) is sequential per vertex
+//! ([`Evaluator::point_grad_batch`]; where two sides of a kink tie
+//! exactly at a vertex and the gradient there is the inner side's, the
+//! one-sided gradient just outside, outward read from the edge's sign
+//! change or the vertex's triangles:
+//! `eval::sample::orient_at_kinks`). The projection of MC33's
+//! interior vertices ([`crate::roots::project`]) is sequential per vertex
 //! (each evaluation depends on the last); those vertices run in parallel.
 
 use glam::DVec3;
