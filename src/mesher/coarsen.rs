@@ -336,7 +336,7 @@ impl Around {
         let (pr, nr) = (m.pos[r as usize], m.grad[r as usize].to_array());
         // A closed disk (only removable vertices are visited): each
         // neighbour follows `r` in exactly one triangle of its star.
-        let near: Small<(f64, u32)> = m.star[r as usize]
+        let mut near: Small<(f64, u32)> = m.star[r as usize]
             .iter()
             .map(|&i| {
                 let tri = m.tris[i as usize];
@@ -345,7 +345,6 @@ impl Around {
                 (pr.distance_squared(m.pos[w as usize]), w)
             })
             .collect();
-        let mut near = near;
         near.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         let kappa = near
             .iter()

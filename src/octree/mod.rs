@@ -397,28 +397,12 @@ fn push_pieces(cell: &[Interval; 4], n: usize, out: &mut Vec<[Interval; 4]>) {
         }
     };
     let (x, y, z) = (cuts(0), cuts(1), cuts(2));
-    let t = Interval {
-        lo: cell[3].lo,
-        hi: cell[3].lo,
-    };
     for i in 0..n {
         for j in 0..n {
             for k in 0..n {
-                out.push([
-                    Interval {
-                        lo: x(i),
-                        hi: x(i + 1),
-                    },
-                    Interval {
-                        lo: y(j),
-                        hi: y(j + 1),
-                    },
-                    Interval {
-                        lo: z(k),
-                        hi: z(k + 1),
-                    },
-                    t,
-                ]);
+                let lo = DVec3::new(x(i), y(j), z(k));
+                let hi = DVec3::new(x(i + 1), y(j + 1), z(k + 1));
+                out.push(cell_input(lo, hi, cell[3].lo));
             }
         }
     }

@@ -333,7 +333,7 @@ fn extract_in<E: Evaluator + ?Sized>(
     let edges = keys.partition_point(|k| k.is_edge());
     // Per edge vertex, also the direction in which `f` grows along its
     // edge.
-    let (mut placed, outward): (Vec<(DVec3, bool)>, Vec<DVec3>) = keys[..edges]
+    let (mut placed, mut outward): (Vec<(DVec3, bool)>, Vec<DVec3>) = keys[..edges]
         .par_chunks(BATCH)
         .flat_map_iter(|chunk| {
             let segments: Vec<Segment> = chunk
@@ -378,11 +378,9 @@ fn extract_in<E: Evaluator + ?Sized>(
     mesh.normals = normals_at(f, t, &mesh.positions);
     // Outward: along the edge's sign change for an edge vertex, along its
     // triangles' normals (oriented outward by construction) for the rest.
-    let mut outward = outward;
     outward.resize(mesh.positions.len(), DVec3::ZERO);
-    for tri in &mesh.triangles {
-        let p = tri.map(|v| mesh.positions[v as usize]);
-        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+    for &tri in &mesh.triangles {
+        let n = mesh.face_normal(tri);
         for &v in tri.iter().filter(|&&v| v as usize >= edges) {
             outward[v as usize] += n;
         }

@@ -183,11 +183,16 @@ fn interior_vertices_are_on_the_surface() {
     scenes_pass(&[1_000_222, 1_000_563, 1_000_876]);
 }
 
+/// Compiles a file of `../shared` (beside the repo).
+fn load(path: &str) -> Surface {
+    let src = std::fs::read_to_string(path).expect("../shared is beside the repo");
+    compile(&src, path)
+}
+
 #[test]
 fn regression_scene() {
     let path = "../shared/regress/csg_nonmanifold.iso";
-    let src = std::fs::read_to_string(path).expect("../shared/regress is beside the repo");
-    let s = compile(&src, path);
+    let s = load(path);
     for plain in [false, true] {
         assert_passes(&s, 7, plain, path);
     }
@@ -195,23 +200,19 @@ fn regression_scene() {
 
 /// Meshes a file at level 8 with the defaults and checks it.
 fn model(path: &str) {
-    let src = std::fs::read_to_string(path).expect("../shared/models is beside the repo");
-    let s = compile(&src, path);
-    assert_passes(&s, 8, false, path);
+    assert_passes(&load(path), 8, false, path);
 }
 
 /// colonnade.vm's base has faces where two primitives tie exactly (f = 0
 /// on both sides of a `min`/`max` at the vertex), and the point gradient
 /// there was the inner side's: 2,578 vertex normals (the whole top of the
 /// base at z = −0.35) faced into the solid at level 8, and 155 at level 6
-/// were more than 120° off their fans,
-/// so its edges were chamfered instead of sharpened and its chord error's
-/// 99.9th percentile was 0.26 cells (0.16 once oriented).
+/// were more than 120° off their fans, so its edges were chamfered
+/// instead of sharpened and its chord error's 99.9th percentile was 0.26
+/// cells (0.16 once oriented).
 #[test]
 fn normals_at_exact_ties_face_outward() {
-    let path = "../shared/models/colonnade.vm";
-    let src = std::fs::read_to_string(path).expect("../shared/models is beside the repo");
-    let s = compile(&src, path);
+    let s = load("../shared/models/colonnade.vm");
     for plain in [false, true] {
         let (mesh, _) = isoc::mesher::mesh(&s, &options(6, plain), &|_| {});
         let against = normals_against_fans(&mesh);
