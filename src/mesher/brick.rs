@@ -223,12 +223,11 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
         && opts.smooth > 0
     {
         let on_seam = seam(&mesh, &origins);
-        let pinned: Vec<bool> = feature
-            .iter()
-            .zip(&on_seam)
-            .map(|(a, b)| *a || *b)
-            .collect();
-        let kept = coarsen::coarsen(&mut mesh, &pinned, &field, t, tau, cancel)?;
+        let marks = coarsen::Marks {
+            pinned: &on_seam,
+            crease: &feature,
+        };
+        let kept = coarsen::coarsen(&mut mesh, marks, &field, t, tau, cancel)?;
         retain(&mut feature, &kept);
         origins.retain(&kept);
     }

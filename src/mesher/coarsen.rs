@@ -11,8 +11,9 @@
 //!
 //! # Contract
 //!
-//! The input is an oriented mesh whose vertices lie on `f = 0`; `pinned`
-//! flags vertices that must stay (crease points, a brick's seam). A
+//! The input is an oriented mesh whose vertices lie on `f = 0`; its
+//! [`Marks`] flag vertices that must stay (a brick's seam) and the crease
+//! points (their normal is one side's). A
 //! collapse removes a vertex `r` into a neighbour `k` (a half-edge
 //! collapse: `k` keeps its position, so every vertex stays on the
 //! surface, and no new point is made). It is made only when
@@ -20,6 +21,13 @@
 //! - `r` is not pinned, its star is a closed disk (not on the domain's
 //!   boundary, not at a non-manifold vertex), and its normal is a unit
 //!   vector;
+//! - a crease point goes only along its crease: it has exactly two sharp
+//!   edges (their triangles' normals more than [`SPLIT_DEG`] apart), both
+//!   to crease points `a` and `b`, `k` is one of them, and `r` lies within
+//!   the tolerance (at the crease's own bend) of the new crease edge
+//!   `a–b`; corners and crease ends stay. Across a crease the normals'
+//!   turn is not read as a curvature, and a new triangle is held to the
+//!   one it replaces at a crease corner (not to that corner's normal);
 //! - the link condition holds (`DynMesh::can_collapse_topologically`):
 //!   the mesh keeps its topology, closedness and orientation;
 //! - no new triangle turns against the one it replaces or against ∇f: its
@@ -49,18 +57,26 @@
 //! centroids, the removed vertex, the corners' normals): a fan could still
 //! bulge off the surface between them, as a chord split's triangle could.
 //! Quality is only kept from falling below a floor; smoothing
-//! ([`super::smooth`]) improves it after. Crease vertices are pinned, so a
-//! model with many creases (colonnade.vm) keeps the dense strips the
-//! creases bring. The pass is sequential (single-threaded): each collapse
-//! is measured on the mesh the previous ones left. It runs in the
-//! smoothing stage, so `--smooth 0` keeps the mesh as extracted and split
-//! (and a bricked run equal to the whole one, [`super::brick`]).
+//! ([`super::smooth`]) improves it after. Corners stay, and so does a
+//! crease point whose crease bends past the tolerance or meets a sharp
+//! edge the crease pass did not sharpen. On the flat faces of a CSG model
+//! (colonnade.vm) the aspect floor refuses most fans next to a crease, so
+//! the faces keep strips about a cell wide after one round; where most
+//! vertices are held only by that floor, a smoothing pass (crease points
+//! and a brick's seam stay) reshapes the fans and another round visits
+//! those vertices again ([`ROUNDS`], [`RETRY_SHARE`]). The pass is sequential
+//! (single-threaded): each collapse is measured on the mesh the previous
+//! ones left. It runs in the smoothing stage, so `--smooth 0` keeps the
+//! mesh as extracted and split (and a bricked run equal to the whole one,
+//! [`super::brick`]).
 
 use glam::DVec3;
 use rayon::prelude::*;
 use smallvec::SmallVec;
 
 use super::adapt::{ALIGN, point_triangle_distance};
+use super::crease::SPLIT_DEG;
+use super::smooth;
 use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
 use crate::mesh::Mesh;
@@ -74,8 +90,18 @@ use crate::octree::criteria::turn;
 /// vertices afterwards and may stretch an edge a little.
 pub const SAFETY: f64 = 0.8;
 
-/// Most sweeps.
+/// Most sweeps of a round.
 const SWEEPS: usize = 4;
+
+/// Most rounds of [`coarsen`].
+pub const ROUNDS: usize = 3;
+
+/// Another round follows when at least this share of the vertices left
+/// had a collapse that only the aspect floor refused: a smoothing pass
+/// reshapes their fans. At depth 8 the share is 4–32 % on smooth
+/// surfaces (no extra round, no extra time) and 93 % on colonnade.vm,
+/// whose flat faces the first round leaves as strips of slivers-to-be.
+const RETRY_SHARE: f64 = 0.5;
 
 /// A sweep that removes fewer than this share of the live vertices is the
 /// last.
@@ -106,22 +132,79 @@ const TARGETS: usize = 2;
 /// A vertex's neighbours or star, on the stack for usual valences.
 type Small<T> = SmallVec<[T; 16]>;
 
+/// What [`coarsen`] must keep of a mesh's vertices.
+#[derive(Clone, Copy, Default)]
+pub struct Marks<'a> {
+    /// Vertices that stay where they are (a brick's seam); a shorter slice
+    /// flags nothing past its end.
+    pub pinned: &'a [bool],
+    /// Crease points ([`super::crease`]): removed only along their crease,
+    /// never moved by the smoothing between rounds.
+    pub crease: &'a [bool],
+}
+
 /// Removes vertices of `mesh` by edge collapses while the chord tolerance
-/// `tau` allows it (see the module doc); `pinned` flags the vertices that
-/// stay. Returns, per input vertex, whether it is kept: the caller
-/// filters its own per-vertex data with it ([`crate::mesh::order::retain`]);
-/// the mesh's own (positions, normals, ambiguity) are filtered already.
-/// Returns [`Cancelled`] when `cancel` was cancelled before a sweep (the
-/// mesh is then left as it was).
+/// `tau` allows it (see the module doc), keeping what `marks` flags; more
+/// [`ROUNDS`] after one smoothing pass each while the aspect floor refused
+/// many collapses ([`RETRY_SHARE`]). Returns, per input vertex, whether it
+/// is kept: the caller filters its own per-vertex data with it
+/// ([`crate::mesh::order::retain`]); the mesh's own (positions, normals,
+/// ambiguity) are filtered already. Returns [`Cancelled`] when `cancel`
+/// was cancelled before a sweep or during a smoothing pass (the mesh is
+/// then valid, with the rounds finished before: as it was when cancelled
+/// at once).
 pub fn coarsen<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
-    pinned: &[bool],
+    marks: Marks,
     f: &E,
     t: f64,
     tau: Chord,
     cancel: &Cancel,
 ) -> Result<Vec<bool>, Cancelled> {
-    let mut c = Coarsener::new(mesh, pinned, tau);
+    let n = mesh.positions.len();
+    let (mut pinned, mut crease) = (marks.pinned.to_vec(), marks.crease.to_vec());
+    pinned.resize(n, false);
+    crease.resize(n, false);
+    let mut kept: Vec<bool> = vec![true; n];
+    let mut visit: Option<Vec<bool>> = None;
+    for round in 0..ROUNDS {
+        if round > 0 {
+            smooth::smooth_part(mesh, f, t, 1, &crease, &pinned, cancel)?;
+        }
+        let marks = Marks {
+            pinned: &pinned,
+            crease: &crease,
+        };
+        let (now, sliver) = coarsen_round(mesh, &marks, visit.as_deref(), f, t, tau, cancel)?;
+        let mut live = kept.iter_mut().filter(|k| **k);
+        for &k in &now {
+            *live.next().expect("one flag per live vertex") = k;
+        }
+        retain(&mut pinned, &now);
+        retain(&mut crease, &now);
+        let retry = sliver.iter().filter(|&&s| s).count();
+        if (retry as f64) < RETRY_SHARE * sliver.len() as f64 {
+            break;
+        }
+        visit = Some(sliver);
+    }
+    Ok(kept)
+}
+
+/// One round of [`coarsen`]: sweeps that visit first the vertices `visit`
+/// flags (all when `None`); returns the kept flags of the round's input
+/// vertices and, per kept vertex, whether only the aspect floor refused
+/// its removal.
+fn coarsen_round<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    marks: &Marks,
+    visit: Option<&[bool]>,
+    f: &E,
+    t: f64,
+    tau: Chord,
+    cancel: &Cancel,
+) -> Result<(Vec<bool>, Vec<bool>), Cancelled> {
+    let mut c = Coarsener::new(mesh, marks, visit, tau);
     for _ in 0..SWEEPS {
         cancel.check()?;
         let made = c.sweep(f, t);
@@ -138,7 +221,13 @@ pub fn coarsen<E: Evaluator + ?Sized>(
     out.normals = std::mem::take(&mut mesh.normals);
     retain(&mut out.normals, &kept);
     *mesh = out;
-    Ok(kept)
+    retain(&mut c.sliver, &kept);
+    Ok((kept, c.sliver))
+}
+
+/// Whether `flags` flags `v` (a shorter slice flags nothing past its end).
+fn flag(flags: &[bool], v: usize) -> bool {
+    flags.get(v).copied().unwrap_or(false)
 }
 
 /// The state of a coarsening.
@@ -147,8 +236,13 @@ struct Coarsener {
     ambiguous: Vec<bool>,
     /// Vertices never removed (pinned, or not removable: [`removable`]).
     fixed: Vec<bool>,
+    /// Crease points: removed only along their crease ([`Around::crease`]).
+    crease: Vec<bool>,
     /// Vertices whose neighbourhood changed since their last visit.
     dirty: Vec<bool>,
+    /// Vertices whose last visit found a collapse that only the aspect
+    /// floor refused ([`Verdict::Sliver`]).
+    sliver: Vec<bool>,
     tau: Chord,
     /// Scratch: the points a collapse is measured at, their tolerances
     /// and the directions ∇f must agree with; the evaluations.
@@ -159,21 +253,26 @@ struct Coarsener {
 }
 
 impl Coarsener {
-    fn new(mesh: &Mesh, pinned: &[bool], tau: Chord) -> Self {
+    fn new(mesh: &Mesh, marks: &Marks, visit: Option<&[bool]>, tau: Chord) -> Self {
         let m = DynMesh::indexed(mesh);
         let n = mesh.positions.len();
         let mut ambiguous = mesh.ambiguous.clone();
         ambiguous.resize(n, false);
         let fixed: Vec<bool> = (0..n as u32)
             .into_par_iter()
-            .map(|v| pinned.get(v as usize).copied().unwrap_or(false) || !removable(&m, v))
+            .map(|v| flag(marks.pinned, v as usize) || !removable(&m, v))
             .collect();
-        let dirty = fixed.iter().map(|&x| !x).collect();
+        let dirty = (0..n)
+            .map(|v| !fixed[v] && visit.is_none_or(|visit| flag(visit, v)))
+            .collect();
+        let crease = (0..n).map(|v| flag(marks.crease, v)).collect();
         Coarsener {
             m,
             ambiguous,
             fixed,
+            crease,
             dirty,
+            sliver: vec![false; n],
             tau,
             samples: Vec::new(),
             pts: Vec::new(),
@@ -209,13 +308,20 @@ impl Coarsener {
     /// Collapses `r` into the nearest of its [`TARGETS`] nearest
     /// neighbours for which every check holds; returns that neighbour.
     fn try_remove<E: Evaluator + ?Sized>(&mut self, f: &E, t: f64, r: u32) -> Option<u32> {
-        let around = Around::new(&self.m, r);
+        let around = Around::new(&self.m, r, &self.crease);
+        let mut sliver = false;
         let k = around
-            .near
-            .iter()
-            .take(TARGETS)
-            .map(|&(_, k)| k)
-            .find(|&k| self.geometric(&around, k) && self.measured(f, t, &around, k))?;
+            .targets()
+            .find(|&k| match self.geometric(&around, k) {
+                Verdict::Passed => self.measured(f, t, &around, k),
+                Verdict::Sliver => {
+                    sliver = true;
+                    false
+                }
+                Verdict::Refused => false,
+            });
+        self.sliver[r as usize] = k.is_none() && sliver;
+        let k = k?;
         let (pk, gk) = (self.m.pos[k as usize], self.m.grad[k as usize]);
         self.m.collapse(k, r, pk, gk);
         self.ambiguous[k as usize] |= self.ambiguous[r as usize];
@@ -224,16 +330,36 @@ impl Coarsener {
 
     /// The checks of collapsing `around.r` into `k` that read the mesh
     /// alone, cheapest first: the new edges' lengths ([`Around::isotropic`]),
-    /// the fan ([`Around::fan_ok`]), the removed vertex within the
+    /// the fan ([`Around::fan`]), the removed vertex within the
     /// tolerance of the fan, and the link condition.
-    fn geometric(&self, around: &Around, k: u32) -> bool {
+    fn geometric(&self, around: &Around, k: u32) -> Verdict {
         let (m, r) = (&self.m, around.r);
         let (pr, pk) = (m.pos[r as usize], m.pos[k as usize]);
-        let bend = turn(m.grad[r as usize].to_array(), m.grad[k as usize].to_array());
-        around.isotropic(m, k, self.tau)
-            && around.fan_ok(m, k)
-            && near_fan(m, r, k) <= tolerance(self.tau, bend, pr.distance(pk))
-            && m.can_collapse_topologically(k, r)
+        let near = || match around.crease {
+            // Along a crease: `r` within the tolerance of the new crease
+            // edge, at the crease's own bend.
+            Some([a, b]) => {
+                let other = m.pos[if k == a { b } else { a } as usize];
+                let bend = turn(
+                    (pr - pk).normalize().to_array(),
+                    (other - pr).normalize().to_array(),
+                );
+                let length = 0.5 * pk.distance(other);
+                segment_distance(pr, pk, other) <= tolerance(self.tau, bend, length)
+            }
+            None => {
+                let bend = turn(m.grad[r as usize].to_array(), m.grad[k as usize].to_array());
+                near_fan(m, r, k) <= tolerance(self.tau, bend, pr.distance(pk))
+            }
+        };
+        if !around.isotropic(m, k, self.tau) {
+            return Verdict::Refused;
+        }
+        let fan = around.fan(m, k, &self.crease);
+        if fan == Verdict::Refused || !near() || !m.can_collapse_topologically(k, r) {
+            return Verdict::Refused;
+        }
+        fan
     }
 
     /// Whether every new edge's midpoint and new triangle's centroid of
@@ -266,7 +392,14 @@ impl Coarsener {
                 continue;
             }
             let (pw, nw) = (m.pos[w as usize], m.grad[w as usize]);
-            let tol = tolerance(tau, turn(nk.to_array(), nw.to_array()), pk.distance(pw));
+            // Across a crease the normals' turn is no curvature: the flat
+            // tolerance there.
+            let bend = if self.crease[k as usize] || self.crease[w as usize] {
+                0.0
+            } else {
+                turn(nk.to_array(), nw.to_array())
+            };
+            let tol = tolerance(tau, bend, pk.distance(pw));
             self.samples.push(((pk + pw) * 0.5, tol, nk + nw));
         }
         for &i in &m.star[r as usize] {
@@ -279,9 +412,13 @@ impl Coarsener {
             let longest = (0..3)
                 .map(|j| p[j].distance(p[(j + 1) % 3]))
                 .fold(0.0, f64::max);
-            let bend = (0..3)
-                .map(|j| turn(g[j].to_array(), g[(j + 1) % 3].to_array()))
-                .fold(0.0, f64::max);
+            let bend = if c.iter().any(|&v| self.crease[v as usize]) {
+                0.0
+            } else {
+                (0..3)
+                    .map(|j| turn(g[j].to_array(), g[(j + 1) % 3].to_array()))
+                    .fold(0.0, f64::max)
+            };
             let n = (p[1] - p[0]).cross(p[2] - p[0]);
             let centroid = (p[0] + p[1] + p[2]) / 3.0;
             self.samples
@@ -325,14 +462,22 @@ struct Around {
     r: u32,
     /// Its neighbours with their squared distances, nearest first.
     near: Small<(f64, u32)>,
-    /// The largest turn per length of the normals along its edges.
+    /// The largest turn per length of the normals along its edges (of a
+    /// crease point: along the edges of its link off the crease, on the
+    /// faces it joins).
     kappa: f64,
+    /// Whether it is a crease point.
+    on_crease: bool,
+    /// Of a crease point, its two neighbours along the crease, when it has
+    /// exactly two sharp edges and both go to crease points: the only
+    /// targets it may be collapsed into (none otherwise: a corner stays).
+    crease: Option<[u32; 2]>,
     /// The worst aspect ratio of its star, once a check needs it.
     worst: std::cell::OnceCell<f64>,
 }
 
 impl Around {
-    fn new(m: &DynMesh, r: u32) -> Around {
+    fn new(m: &DynMesh, r: u32, crease: &[bool]) -> Around {
         let (pr, nr) = (m.pos[r as usize], m.grad[r as usize].to_array());
         // A closed disk (only removable vertices are visited): each
         // neighbour follows `r` in exactly one triangle of its star.
@@ -346,16 +491,41 @@ impl Around {
             })
             .collect();
         near.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-        let kappa = near
-            .iter()
-            .map(|&(d2, w)| turn(nr, m.grad[w as usize].to_array()) / d2.sqrt())
-            .fold(0.0, f64::max);
+        let (kappa, crease_at) = if crease[r as usize] {
+            (link_kappa(m, r, crease), crease_neighbours(m, r, crease))
+        } else {
+            let kappa = near
+                .iter()
+                .filter(|&&(_, w)| !crease[w as usize])
+                .map(|&(d2, w)| turn(nr, m.grad[w as usize].to_array()) / d2.sqrt())
+                .fold(0.0, f64::max);
+            (kappa, None)
+        };
         Around {
             r,
             near,
             kappa,
+            on_crease: crease[r as usize],
+            crease: crease_at,
             worst: std::cell::OnceCell::new(),
         }
+    }
+
+    /// The neighbours `r` may be collapsed into, in the order tried: a
+    /// smooth vertex's [`TARGETS`] nearest, a crease point's two along the
+    /// crease (nearest first; none at a corner).
+    fn targets(&self) -> impl Iterator<Item = u32> + '_ {
+        let along = self.crease.map(|ab| {
+            self.near
+                .iter()
+                .map(|&(_, w)| w)
+                .filter(move |w| ab.contains(w))
+        });
+        let smooth = (!self.on_crease).then(|| self.near.iter().take(TARGETS).map(|&(_, k)| k));
+        along
+            .into_iter()
+            .flatten()
+            .chain(smooth.into_iter().flatten())
     }
 
     /// Whether every new edge of collapsing into `k`, shortened by
@@ -373,7 +543,7 @@ impl Around {
     /// Whether the fan that collapsing into `k` makes is acceptable: no
     /// triangle turns over, leaves a corner's normal by more than 60°, or
     /// is a sliver (see the module doc).
-    fn fan_ok(&self, m: &DynMesh, k: u32) -> bool {
+    fn fan(&self, m: &DynMesh, k: u32, crease: &[bool]) -> Verdict {
         let (r, pk) = (self.r, m.pos[k as usize]);
         let mut new_worst = 1.0f64;
         for &i in &m.star[r as usize] {
@@ -387,12 +557,25 @@ impl Around {
             let old = (q[1] - q[0]).cross(q[2] - q[0]);
             let nu = n.normalize_or_zero();
             let corners = tri.map(|v| if v == r { k } else { v });
-            if n.dot(old) <= 0.0 || corners.iter().any(|&v| nu.dot(m.grad[v as usize]) < ALIGN) {
-                return false;
+            // A crease point's normal is one side's: the new triangle is
+            // held to the one it replaces there.
+            let normal = |v: u32| {
+                if crease[v as usize] {
+                    old.normalize_or_zero()
+                } else {
+                    m.grad[v as usize]
+                }
+            };
+            if n.dot(old) <= 0.0 || corners.iter().any(|&v| nu.dot(normal(v)) < ALIGN) {
+                return Verdict::Refused;
             }
             new_worst = new_worst.min(aspect(nq[0], nq[1], nq[2]));
         }
-        new_worst >= MIN_ASPECT || new_worst >= *self.worst.get_or_init(|| star_worst(m, r))
+        if new_worst >= MIN_ASPECT || new_worst >= *self.worst.get_or_init(|| star_worst(m, r)) {
+            Verdict::Passed
+        } else {
+            Verdict::Sliver
+        }
     }
 }
 
@@ -418,6 +601,79 @@ fn near_fan(m: &DynMesh, r: u32, k: u32) -> f64 {
             point_triangle_distance(pr, tri.map(|v| if v == r { pk } else { m.pos[v as usize] }))
         })
         .fold(f64::INFINITY, f64::min)
+}
+
+/// What [`Coarsener::geometric`] says of a collapse.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Verdict {
+    /// Every check that reads the mesh alone holds.
+    Passed,
+    /// Only the aspect floor refuses it: a new triangle would be a sliver.
+    Sliver,
+    /// Another check refuses it.
+    Refused,
+}
+
+/// The distance from `p` to the segment `a–b`.
+fn segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let s = ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
+    if s.is_finite() {
+        p.distance(a + s * ab)
+    } else {
+        p.distance(a)
+    }
+}
+
+/// Whether the edge `r–w` is sharp: its two triangles' normals turn by
+/// more than [`SPLIT_DEG`] (the crease pass's own threshold).
+fn sharp(m: &DynMesh, r: u32, w: u32) -> bool {
+    let Some(pair) = m.edge_pair(r, w) else {
+        return false;
+    };
+    let [n0, n1] = pair.map(|(_, t)| {
+        let p = t.map(|v| m.pos[v as usize]);
+        (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
+    });
+    n0.dot(n1) < SPLIT_DEG.to_radians().cos()
+}
+
+/// A crease point's two neighbours along its crease: its only sharp edges
+/// go to exactly two crease points. `None` at a corner, an end, or where
+/// a sharp edge leaves to a vertex off the crease.
+fn crease_neighbours(m: &DynMesh, r: u32, crease: &[bool]) -> Option<[u32; 2]> {
+    let mut along: SmallVec<[u32; 2]> = SmallVec::new();
+    for &i in &m.star[r as usize] {
+        let tri = m.tris[i as usize];
+        let at = tri.iter().position(|&v| v == r)?;
+        let w = tri[(at + 1) % 3];
+        if sharp(m, r, w) {
+            if !crease[w as usize] || along.len() == 2 {
+                return None;
+            }
+            along.push(w);
+        }
+    }
+    (along.len() == 2).then(|| [along[0], along[1]])
+}
+
+/// The largest turn per length of the normals along the edges of `r`'s
+/// link that join two vertices off the crease: the faces' curvature
+/// around a crease point, whose own normal is one side's.
+fn link_kappa(m: &DynMesh, r: u32, crease: &[bool]) -> f64 {
+    m.star[r as usize]
+        .iter()
+        .map(|&i| m.tris[i as usize])
+        .filter_map(|tri| {
+            let at = tri.iter().position(|&v| v == r)?;
+            let (x, y) = (tri[(at + 1) % 3], tri[(at + 2) % 3]);
+            if crease[x as usize] || crease[y as usize] {
+                return None;
+            }
+            let (gx, gy) = (m.grad[x as usize], m.grad[y as usize]);
+            Some(turn(gx.to_array(), gy.to_array()) / m.pos[x as usize].distance(m.pos[y as usize]))
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Whether `v` may be removed at all: its star is one closed disk (the

@@ -305,6 +305,24 @@ impl Flips {
         pinned
     }
 
+    /// Per vertex, whether it lies on a ridge line: at least two of its
+    /// edges are ridges, interior manifold edges whose two triangles' unit
+    /// normals have a dot product below `cos` (a single ridge edge is a
+    /// kink in a crumpled fan, not a line).
+    pub fn on_ridge_lines(&self, mesh: &Mesh, cos: f64) -> Vec<bool> {
+        let n = |h: usize| mesh.face_normal(mesh.triangles[h / 3]).normalize_or_zero();
+        let mut ridges = vec![0u8; mesh.positions.len()];
+        for (h, &g) in self.twin.iter().enumerate() {
+            if g != NONE && h < g as usize && n(h).dot(n(g as usize)) < cos {
+                let t = mesh.triangles[h / 3];
+                for v in [t[h % 3], t[(h % 3 + 1) % 3]] {
+                    ridges[v as usize] = ridges[v as usize].saturating_add(1);
+                }
+            }
+        }
+        ridges.into_iter().map(|r| r >= 2).collect()
+    }
+
     /// Runs flip sweeps on `mesh` (whose connectivity must be the one
     /// [`Flips::new`] saw, as left by earlier runs) until none is accepted
     /// (or [`MAX_SWEEPS`]); returns how many flips were made. See the

@@ -283,7 +283,11 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     if let Some(tau) = tau
         && opts.smooth > 0
     {
-        let kept = coarsen::coarsen(&mut mesh, &creases.feature, &field, t, tau, cancel)?;
+        let marks = coarsen::Marks {
+            pinned: &[],
+            crease: &creases.feature,
+        };
+        let kept = coarsen::coarsen(&mut mesh, marks, &field, t, tau, cancel)?;
         retain(&mut creases.feature, &kept);
     }
     let moves =

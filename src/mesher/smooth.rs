@@ -21,7 +21,12 @@
 //! a fraction of the old), or fold one (its normal would disagree with the
 //! surface's normal at a corner where it agreed before), or when the projection finds no zero near the
 //! candidate. Vertices on a boundary, non-manifold or misoriented edge
-//! (open surfaces cut by the domain) never move. After the last pass the
+//! (open surfaces cut by the domain) never move, and neither do the
+//! vertices on a ridge line (two or more of their edges have triangles
+//! that turn by more than the crease pass's [`SPLIT_DEG`]): a chamfer
+//! across a crease the crease pass could not sharpen (two creases in one
+//! cell, a wall a cell thin) would widen as its vertices slid off the
+//! crease. After the last pass the
 //! flips run once more. Smoothing never changes the vertex set or the
 //! mesh's topology and orientation; every vertex stays on the surface (it
 //! moves only to a projected point).
@@ -58,6 +63,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use smallvec::SmallVec;
 
+use super::crease::SPLIT_DEG;
 use super::flip::Flips;
 use crate::cancel::{Cancel, Cancelled, uncancelled};
 use crate::eval::Evaluator;
@@ -248,6 +254,13 @@ pub fn smooth_part<E: Evaluator + ?Sized>(
     flips.keep_edges_between(keep);
     flips.keep_apart(seam);
     let mut pinned = flips.pinned(mesh);
+    // A vertex on a ridge line the crease pass left (a chamfer across a
+    // crease it could not sharpen) would slide across the crease, widening
+    // the chamfer: it stays.
+    let ridges = flips.on_ridge_lines(mesh, SPLIT_DEG.to_radians().cos());
+    for (p, &k) in pinned.iter_mut().zip(&ridges) {
+        *p |= k;
+    }
     for (p, &k) in pinned.iter_mut().zip(keep) {
         *p |= k;
     }

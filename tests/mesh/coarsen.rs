@@ -5,14 +5,16 @@
 //! bit; pinned vertices stay; the exact chord error stays within the
 //! tolerance at the surface's curvature; the mesh loses at least a fifth of
 //! its triangles; and the result does not depend on the run. A mesh cut by
-//! the domain keeps its boundary.
+//! the domain keeps its boundary. On a box, crease points are removed
+//! along the straight edges only: the corners stay, every crease point
+//! left is still on two faces, and every sample is on the box.
 //!
 //! Limits: the exact distance is known for the torus only; on the product
 //! the chord error is the first-order `|f| / ‖∇f‖`.
 
 use glam::DVec3;
 use isoc::mesh::topology::{analyze, analyze_in};
-use isoc::mesher::coarsen::coarsen;
+use isoc::mesher::coarsen::{Marks, coarsen};
 use isoc::octree::Chord;
 use isoc::{Cancel, Mesh, MeshOptions, OctreeOptions};
 
@@ -96,8 +98,18 @@ fn coarsening_keeps_the_mesh_and_the_chord_tolerance() {
         // Every seventh vertex pinned.
         let pinned: Vec<bool> = (0..input.positions.len()).map(|i| i % 7 == 0).collect();
         let mut mesh = input.clone();
-        let kept =
-            coarsen(&mut mesh, &pinned, &s, 0.0, tau, &Cancel::new()).expect("not cancelled");
+        let kept = coarsen(
+            &mut mesh,
+            Marks {
+                pinned: &pinned,
+                crease: &[],
+            },
+            &s,
+            0.0,
+            tau,
+            &Cancel::new(),
+        )
+        .expect("not cancelled");
 
         let (before, after) = (analyze(&input), analyze(&mesh));
         assert!(after.manifold() && after.watertight, "{src}: {after:?}");
@@ -134,8 +146,18 @@ fn coarsening_keeps_the_mesh_and_the_chord_tolerance() {
 
         // The same result on a second run.
         let mut again = input.clone();
-        let kept2 =
-            coarsen(&mut again, &pinned, &s, 0.0, tau, &Cancel::new()).expect("not cancelled");
+        let kept2 = coarsen(
+            &mut again,
+            Marks {
+                pinned: &pinned,
+                crease: &[],
+            },
+            &s,
+            0.0,
+            tau,
+            &Cancel::new(),
+        )
+        .expect("not cancelled");
         assert_eq!(kept, kept2);
         assert_eq!(again.triangles, mesh.triangles);
         assert_eq!(position_bits(&again), position_bits(&mesh));
@@ -174,7 +196,7 @@ fn coarsening_keeps_a_boundary_where_the_domain_cuts() {
         edges
     };
     let mut mesh = input.clone();
-    coarsen(&mut mesh, &[], &s, 0.0, tau, &Cancel::new()).expect("not cancelled");
+    coarsen(&mut mesh, Marks::default(), &s, 0.0, tau, &Cancel::new()).expect("not cancelled");
     assert!(mesh.triangles.len() < input.triangles.len());
     assert!(!boundary(&input).is_empty());
     assert_eq!(boundary(&mesh), boundary(&input));
@@ -188,7 +210,82 @@ fn a_cancelled_coarsening_leaves_the_mesh_as_it_was() {
     let cancel = Cancel::new();
     cancel.cancel();
     let mut mesh = input.clone();
-    assert!(coarsen(&mut mesh, &[], &s, 0.0, tau, &cancel).is_err());
+    assert!(coarsen(&mut mesh, Marks::default(), &s, 0.0, tau, &cancel).is_err());
     assert_eq!(mesh.triangles, input.triangles);
     assert_eq!(position_bits(&mesh), position_bits(&input));
+}
+
+/// A box off the octree's planes: its edges are sharpened by the crease
+/// pass (a crease point about every cell), and the collapses along the
+/// edges take most of them back.
+#[test]
+fn crease_points_are_removed_along_straight_creases_only() {
+    let (a, b, c) = (0.61, 0.47, 0.53);
+    let src =
+        format!("domain [-1, 1]^3; surface max(max(abs(x) - {a}, abs(y) - {b}), abs(z) - {c});");
+    let (s, input, tau) = extracted(&src, 6);
+    // The faces a vertex lies on, exactly (the crease pass projects its
+    // points onto both).
+    let faces = |p: DVec3| {
+        [(p.x.abs(), a), (p.y.abs(), b), (p.z.abs(), c)]
+            .iter()
+            .filter(|&&(v, h)| (v - h).abs() <= 1e-12)
+            .count()
+    };
+    let crease: Vec<bool> = input.positions.iter().map(|&p| faces(p) >= 2).collect();
+    let corners = input.positions.iter().filter(|&&p| faces(p) == 3).count();
+    assert_eq!(corners, 8, "the crease pass put a point on every corner");
+    let mut mesh = input.clone();
+    let kept = coarsen(
+        &mut mesh,
+        Marks {
+            pinned: &[],
+            crease: &crease,
+        },
+        &s,
+        0.0,
+        tau,
+        &Cancel::new(),
+    )
+    .expect("not cancelled");
+
+    let t = analyze(&mesh);
+    assert!(
+        t.manifold() && t.watertight && t.components == 1 && t.genus == [Some(0)],
+        "{t:?}"
+    );
+    assert_eq!(mesh.positions.iter().filter(|&&p| faces(p) == 3).count(), 8);
+    let (before, after) = (
+        crease.iter().filter(|&&x| x).count(),
+        (0..kept.len()).filter(|&i| kept[i] && crease[i]).count(),
+    );
+    eprintln!(
+        "crease points {before} → {after}, triangles {} → {}",
+        input.triangles.len(),
+        mesh.triangles.len()
+    );
+    assert!(2 * after <= before, "{before} → {after}");
+    // The flat faces' later rounds (the first leaves strips about a cell
+    // wide along the edges).
+    assert!(
+        10 * mesh.triangles.len() <= input.triangles.len(),
+        "{} → {}",
+        input.triangles.len(),
+        mesh.triangles.len()
+    );
+    // The samples (centroids and edge midpoints) no farther off the box
+    // than the input's worst or the flat tolerance (|f| is the distance
+    // inside the box and on its faces).
+    let worst = |m: &Mesh| {
+        samples(m, tau)
+            .iter()
+            .map(|&(q, _)| s.point([q.x, q.y, q.z, 0.0]).abs())
+            .fold(0.0, f64::max)
+    };
+    let (w0, w1) = (worst(&input), worst(&mesh));
+    assert!(
+        w1 <= w0.max(tau.base),
+        "{w0} → {w1} (tolerance {})",
+        tau.base
+    );
 }
