@@ -98,18 +98,11 @@ fn coarsening_keeps_the_mesh_and_the_chord_tolerance() {
         // Every seventh vertex pinned.
         let pinned: Vec<bool> = (0..input.positions.len()).map(|i| i % 7 == 0).collect();
         let mut mesh = input.clone();
-        let kept = coarsen(
-            &mut mesh,
-            Marks {
-                pinned: &pinned,
-                crease: &[],
-            },
-            &s,
-            0.0,
-            tau,
-            &Cancel::new(),
-        )
-        .expect("not cancelled");
+        let marks = Marks {
+            pinned: &pinned,
+            crease: &[],
+        };
+        let kept = coarsened(&mut mesh, marks, &s, tau);
 
         let (before, after) = (analyze(&input), analyze(&mesh));
         assert!(after.manifold() && after.watertight, "{src}: {after:?}");
@@ -146,22 +139,16 @@ fn coarsening_keeps_the_mesh_and_the_chord_tolerance() {
 
         // The same result on a second run.
         let mut again = input.clone();
-        let kept2 = coarsen(
-            &mut again,
-            Marks {
-                pinned: &pinned,
-                crease: &[],
-            },
-            &s,
-            0.0,
-            tau,
-            &Cancel::new(),
-        )
-        .expect("not cancelled");
+        let kept2 = coarsened(&mut again, marks, &s, tau);
         assert_eq!(kept, kept2);
         assert_eq!(again.triangles, mesh.triangles);
         assert_eq!(position_bits(&again), position_bits(&mesh));
     }
+}
+
+/// [`coarsen`] at `t = 0`, never cancelled: the kept flags.
+fn coarsened(mesh: &mut Mesh, marks: Marks, s: &isoc::Surface, tau: Chord) -> Vec<bool> {
+    coarsen(mesh, marks, s, 0.0, tau, &Cancel::new()).expect("not cancelled")
 }
 
 /// One vertex's position, bit for bit.
@@ -196,7 +183,7 @@ fn coarsening_keeps_a_boundary_where_the_domain_cuts() {
         edges
     };
     let mut mesh = input.clone();
-    coarsen(&mut mesh, Marks::default(), &s, 0.0, tau, &Cancel::new()).expect("not cancelled");
+    coarsened(&mut mesh, Marks::default(), &s, tau);
     assert!(mesh.triangles.len() < input.triangles.len());
     assert!(!boundary(&input).is_empty());
     assert_eq!(boundary(&mesh), boundary(&input));
@@ -236,18 +223,11 @@ fn crease_points_are_removed_along_straight_creases_only() {
     let corners = input.positions.iter().filter(|&&p| faces(p) == 3).count();
     assert_eq!(corners, 8, "the crease pass put a point on every corner");
     let mut mesh = input.clone();
-    let kept = coarsen(
-        &mut mesh,
-        Marks {
-            pinned: &[],
-            crease: &crease,
-        },
-        &s,
-        0.0,
-        tau,
-        &Cancel::new(),
-    )
-    .expect("not cancelled");
+    let marks = Marks {
+        pinned: &[],
+        crease: &crease,
+    };
+    let kept = coarsened(&mut mesh, marks, &s, tau);
 
     let t = analyze(&mesh);
     assert!(
@@ -255,6 +235,15 @@ fn crease_points_are_removed_along_straight_creases_only() {
         "{t:?}"
     );
     assert_eq!(mesh.positions.iter().filter(|&&p| faces(p) == 3).count(), 8);
+    // Every crease point left is still on two faces (kept, never moved).
+    let survivors = (0..kept.len()).filter(|&i| kept[i]);
+    for (new, old) in survivors.enumerate() {
+        assert!(
+            !crease[old] || faces(mesh.positions[new]) >= 2,
+            "{}",
+            mesh.positions[new]
+        );
+    }
     let (before, after) = (
         crease.iter().filter(|&&x| x).count(),
         (0..kept.len()).filter(|&i| kept[i] && crease[i]).count(),
