@@ -236,7 +236,7 @@ struct Coarsener {
     ambiguous: Vec<bool>,
     /// Vertices never removed (pinned, or not removable: [`removable`]).
     fixed: Vec<bool>,
-    /// Crease points: removed only along their crease ([`Around::crease`]).
+    /// Crease points: removed only along their crease ([`Kind::Crease`]).
     crease: Vec<bool>,
     /// Vertices whose neighbourhood changed since their last visit.
     dirty: Vec<bool>,
@@ -335,10 +335,10 @@ impl Coarsener {
     fn geometric(&self, around: &Around, k: u32) -> Verdict {
         let (m, r) = (&self.m, around.r);
         let (pr, pk) = (m.pos[r as usize], m.pos[k as usize]);
-        let near = || match around.crease {
+        let near = || match around.kind {
             // Along a crease: `r` within the tolerance of the new crease
             // edge, at the crease's own bend.
-            Some([a, b]) => {
+            Kind::Crease(Some([a, b])) => {
                 let other = m.pos[if k == a { b } else { a } as usize];
                 let bend = turn(
                     (pr - pk).normalize().to_array(),
@@ -347,7 +347,7 @@ impl Coarsener {
                 let length = 0.5 * pk.distance(other);
                 segment_distance(pr, pk, other) <= tolerance(self.tau, bend, length)
             }
-            None => {
+            _ => {
                 let bend = turn(m.grad[r as usize].to_array(), m.grad[k as usize].to_array());
                 near_fan(m, r, k) <= tolerance(self.tau, bend, pr.distance(pk))
             }
@@ -466,12 +466,8 @@ struct Around {
     /// crease point: along the edges of its link off the crease, on the
     /// faces it joins).
     kappa: f64,
-    /// Whether it is a crease point.
-    on_crease: bool,
-    /// Of a crease point, its two neighbours along the crease, when it has
-    /// exactly two sharp edges and both go to crease points: the only
-    /// targets it may be collapsed into (none otherwise: a corner stays).
-    crease: Option<[u32; 2]>,
+    /// A smooth vertex or a crease point.
+    kind: Kind,
     /// The worst aspect ratio of its star, once a check needs it.
     worst: std::cell::OnceCell<f64>,
 }
@@ -491,22 +487,22 @@ impl Around {
             })
             .collect();
         near.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-        let (kappa, crease_at) = if crease[r as usize] {
-            (link_kappa(m, r, crease), crease_neighbours(m, r, crease))
+        let (kappa, kind) = if crease[r as usize] {
+            let along = crease_neighbours(m, r, crease);
+            (link_kappa(m, r, crease), Kind::Crease(along))
         } else {
             let kappa = near
                 .iter()
                 .filter(|&&(_, w)| !crease[w as usize])
                 .map(|&(d2, w)| turn(nr, m.grad[w as usize].to_array()) / d2.sqrt())
                 .fold(0.0, f64::max);
-            (kappa, None)
+            (kappa, Kind::Smooth)
         };
         Around {
             r,
             near,
             kappa,
-            on_crease: crease[r as usize],
-            crease: crease_at,
+            kind,
             worst: std::cell::OnceCell::new(),
         }
     }
@@ -515,17 +511,16 @@ impl Around {
     /// smooth vertex's [`TARGETS`] nearest, a crease point's two along the
     /// crease (nearest first; none at a corner).
     fn targets(&self) -> impl Iterator<Item = u32> + '_ {
-        let along = self.crease.map(|ab| {
-            self.near
-                .iter()
-                .map(|&(_, w)| w)
-                .filter(move |w| ab.contains(w))
-        });
-        let smooth = (!self.on_crease).then(|| self.near.iter().take(TARGETS).map(|&(_, k)| k));
-        along
-            .into_iter()
-            .flatten()
-            .chain(smooth.into_iter().flatten())
+        let (along, take) = match self.kind {
+            Kind::Smooth => (None, TARGETS),
+            Kind::Crease(Some(ab)) => (Some(ab), 2),
+            Kind::Crease(None) => (None, 0),
+        };
+        self.near
+            .iter()
+            .map(|&(_, w)| w)
+            .filter(move |w| along.is_none_or(|ab| ab.contains(w)))
+            .take(take)
     }
 
     /// Whether every new edge of collapsing into `k`, shortened by
@@ -601,6 +596,17 @@ fn near_fan(m: &DynMesh, r: u32, k: u32) -> f64 {
             point_triangle_distance(pr, tri.map(|v| if v == r { pk } else { m.pos[v as usize] }))
         })
         .fold(f64::INFINITY, f64::min)
+}
+
+/// What a vertex visited by [`Coarsener::try_remove`] is.
+#[derive(Clone, Copy)]
+enum Kind {
+    /// Off the creases: collapsed into one of its [`TARGETS`] nearest.
+    Smooth,
+    /// A crease point, with its two neighbours along the crease when it has
+    /// exactly two sharp edges and both go to crease points: the only
+    /// targets it may be collapsed into (none otherwise: a corner stays).
+    Crease(Option<[u32; 2]>),
 }
 
 /// What [`Coarsener::geometric`] says of a collapse.

@@ -258,14 +258,10 @@ pub fn smooth_part<E: Evaluator + ?Sized>(
     // crease it could not sharpen) would slide across the crease, widening
     // the chamfer: it stays.
     let ridges = flips.on_ridge_lines(mesh, SPLIT_DEG.to_radians().cos());
-    for (p, &k) in pinned.iter_mut().zip(&ridges) {
-        *p |= k;
-    }
-    for (p, &k) in pinned.iter_mut().zip(keep) {
-        *p |= k;
-    }
-    for (p, &k) in pinned.iter_mut().zip(seam) {
-        *p |= k;
+    for flags in [&ridges[..], keep, seam] {
+        for (p, &k) in pinned.iter_mut().zip(flags) {
+            *p |= k;
+        }
     }
     let mut moved = vec![false; mesh.positions.len()];
     for _ in 0..passes {
