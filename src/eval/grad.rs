@@ -306,8 +306,22 @@ fn map3<N: Num>(f: impl Fn(usize) -> N) -> [N; 3] {
     [f(0), f(1), f(2)]
 }
 
+/// Three directions of differentiation: the partials of `x`, `y` and `z`
+/// (rows) along each of them (columns). Partials taken in a frame are the
+/// derivatives along its columns, `∂F/∂uₖ = Σᵢ frame[i][k]·∂F/∂xᵢ`.
+pub type Frame = [[f64; 3]; 3];
+
+/// The frame of the axes: partials are `(∂/∂x, ∂/∂y, ∂/∂z)`.
+pub const AXES: Frame = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
 /// The value and partials of one instruction, from those before it.
 pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
+    step_in(op, vals, input, &AXES)
+}
+
+/// [`step`] with the partials taken along the columns of `frame`.
+#[inline]
+pub fn step_in<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4], frame: &Frame) -> Dual<N> {
     use BinOp as B;
     use UnOp as U;
     let zero = N::cst(0.0);
@@ -327,9 +341,11 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
     match *op {
         Op::Var(v) => {
             let i = v.index();
+            // `t` (index 3) is not differentiated.
+            let seed = frame.get(i).copied().unwrap_or([0.0; 3]);
             Dual {
                 v: input[i],
-                d: map3(|k| N::cst(if k == i { 1.0 } else { 0.0 })),
+                d: map3(|k| N::cst(seed[k])),
             }
         }
         Op::Const(c) => Dual {
@@ -439,18 +455,19 @@ pub fn step<N: Num>(op: &Op, vals: &[Dual<N>], input: [N; 4]) -> Dual<N> {
 fn run<N: Num>(
     program: &Program,
     input: [N; 4],
+    frame: &Frame,
     fixup: impl Fn(Dual<N>) -> Dual<N>,
 ) -> Option<Dual<N>> {
     // Short (pruned) programs run in a buffer on the stack, sized to the
     // program (filling it is part of the cost).
     match program.insts.len() {
-        0..=8 => run_on_stack::<N, 8>(program, input, fixup),
-        9..=16 => run_on_stack::<N, 16>(program, input, fixup),
-        17..=32 => run_on_stack::<N, 32>(program, input, fixup),
+        0..=8 => run_on_stack::<N, 8>(program, input, frame, fixup),
+        9..=16 => run_on_stack::<N, 16>(program, input, frame, fixup),
+        17..=32 => run_on_stack::<N, 32>(program, input, frame, fixup),
         _ => {
             let mut vals: Vec<Dual<N>> = Vec::with_capacity(program.insts.len());
             for op in &program.insts {
-                let d = fixup(step(op, &vals, input));
+                let d = fixup(step_in(op, &vals, input, frame));
                 vals.push(d);
             }
             vals.get(program.output.index()).copied()
@@ -463,6 +480,7 @@ fn run<N: Num>(
 fn run_on_stack<N: Num, const S: usize>(
     program: &Program,
     input: [N; 4],
+    frame: &Frame,
     fixup: impl Fn(Dual<N>) -> Dual<N>,
 ) -> Option<Dual<N>> {
     let n = program.insts.len();
@@ -472,18 +490,29 @@ fn run_on_stack<N: Num, const S: usize>(
     };
     let mut vals = [unknown; S];
     for (i, op) in program.insts.iter().enumerate() {
-        vals[i] = fixup(step(op, &vals[..i], input));
+        vals[i] = fixup(step_in(op, &vals[..i], input, frame));
     }
     vals[..n].get(program.output.index()).copied()
 }
 
 /// Interval value and gradient over the box `[x, y, z, t]`.
 pub fn eval(program: &Program, input: [Interval; 4]) -> GradEval {
+    eval_in(program, input, &AXES)
+}
+
+/// Interval value and derivatives along the columns of `frame` over the
+/// box `[x, y, z, t]` (`grad[k]` encloses `Σᵢ frame[i][k]·∂F/∂xᵢ`, the
+/// hull of the one-sided derivatives where `F` has a kink): the same
+/// rules as [`eval`], seeded with the frame instead of the axes, so along
+/// a direction across a `min`/`max` crease the enclosure is the hull of
+/// the two faces' derivatives along it, not the projection of the hull of
+/// their gradients.
+pub fn eval_in(program: &Program, input: [Interval; 4], frame: &Frame) -> GradEval {
     let input = input.map(|b| {
         let (iv, ok) = b.normalize();
         DecInterval::new(iv, ok)
     });
-    let out = run(program, input, |d| d);
+    let out = run(program, input, frame, |d| d);
     match out {
         Some(Dual { v, d }) => GradEval {
             value: v.iv,
@@ -501,7 +530,7 @@ pub fn eval(program: &Program, input: [Interval; 4]) -> GradEval {
 /// Point value and gradient at `[x, y, z, t]` (forward-mode AD in f64).
 /// Where the value is NaN the gradient is NaN.
 pub fn eval_point(program: &Program, input: [f64; 4]) -> (f64, [f64; 3]) {
-    let out = run(program, input, |d| {
+    let out = run(program, input, &AXES, |d| {
         if d.v.is_nan() {
             Dual {
                 v: d.v,

@@ -74,6 +74,18 @@ pub trait Evaluator: Sync {
         None
     }
 
+    /// Interval value and derivatives along the columns of `frame` over a
+    /// box ([`grad::eval_in`]), which the octree asks across `min`/`max`
+    /// creases only. The default interprets [`Evaluator::program`] (the
+    /// JIT has no kernel for it); without a program it answers the whole
+    /// line, not defined, which certifies nothing.
+    fn grad_in(&self, b: [Interval; 4], frame: &grad::Frame) -> GradEval {
+        match self.program() {
+            Some(p) => grad::eval_in(p, b, frame),
+            None => WHOLE_GRAD,
+        }
+    }
+
     /// `out[i] = point([xs[i], ys[i], zs[i], t])`; all four slices of one
     /// length.
     fn point_batch(&self, xs: &[f64], ys: &[f64], zs: &[f64], t: f64, out: &mut [f64]) {
@@ -177,5 +189,8 @@ impl<E: Evaluator + ?Sized> Evaluator for &E {
     }
     fn grad_batch(&self, boxes: &[[Interval; 4]], out: &mut [GradEval]) {
         (**self).grad_batch(boxes, out)
+    }
+    fn grad_in(&self, b: [Interval; 4], frame: &grad::Frame) -> GradEval {
+        (**self).grad_in(b, frame)
     }
 }

@@ -6,6 +6,7 @@
 //! | connected component | `0 ∉ F(B)`, `F` defined on all of `B` | the cell holds no surface: discard |
 //! | topology (paper) | `(0,0,0) ∈ ∇F(B)` | subdivide; ambiguous at the last level |
 //! | topology (`certify`) | `0 ∈ Σ ∂ᵢF(B) ⊗ ∂ᵢF(B)` with the two factors independent | subdivide; ambiguous at the last level |
+//! | topology along `d` (paper's test, last level, across a crease: `super::crease`) | `0 ∈ d·∇F(B)`, `d` the sign pattern of `∇F(B)` | ambiguous |
 //! | geometry | `Diam(∇F(B)/‖∇F(B)‖) > k_max` | subdivide (not a guarantee) |
 //! | chord (faithful `--level`) | estimated chord error of a mesh through the cell `> τ` ([`chord_error`]) | subdivide (not a guarantee) |
 //!
@@ -43,7 +44,7 @@ pub enum TopologyTest {
 }
 
 /// The verdict on one cell.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Verdict {
     /// The interval proves that the cell holds no surface.
     pub empty: bool,
@@ -60,6 +61,9 @@ pub struct Verdict {
     /// crease they seldom do (the hull of two faces' gradients often holds
     /// the zero vector, however small the piece).
     pub smooth: bool,
+    /// The enclosure of `∇F` over the whole cell that the verdict was
+    /// judged from (the whole line where the value alone decided).
+    pub grad: [Interval; 3],
 }
 
 impl Verdict {
@@ -118,6 +122,7 @@ pub(crate) fn judge(
             geometry_ok: false,
             defined: value_defined,
             smooth: g.defined,
+            grad: g.grad,
         };
     }
     let topology_ok = match test {
@@ -131,6 +136,7 @@ pub(crate) fn judge(
         geometry_ok,
         defined: true,
         smooth: g.defined,
+        grad: g.grad,
     }
 }
 

@@ -41,7 +41,10 @@
 //! may stop (above the last level, with a chord tolerance), and
 //! [`Evaluator::grad_batch`] over the pieces of the cells that failed the
 //! topology or geometry test on a differentiable `F` and would otherwise
-//! stop. The proof search below ambiguous leaves
+//! stop. At the last level a cell across a `min`/`max` crease that failed
+//! the topology test gets one more interval-gradient evaluation, along the
+//! sign pattern of its gradient enclosure ([`crease`]). The proof search
+//! below ambiguous leaves
 //! ([`Octree::clear_false_ambiguity`]) is recursive, one cell per call;
 //! the ambiguous leaves run in parallel.
 //!
@@ -80,6 +83,7 @@
 //! zero among them, shows that it holds surface (intermediate values), and
 //! the search is skipped.
 
+mod crease;
 pub(crate) mod criteria;
 pub mod field;
 pub mod octant;
@@ -507,6 +511,7 @@ fn examine<E: Evaluator + ?Sized>(
                     geometry_ok: false,
                     defined: true,
                     smooth: true,
+                    grad: [Interval::ENTIRE; 3],
                 };
             }
             let g = grads.next().expect("one gradient per open cell");
@@ -1010,6 +1015,15 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
                 if level >= self.min_level {
                     let last = level == self.max_level;
                     review(e, &cells[start..end], &mut v, opts, self.tau, last);
+                    // Across creases at the last level, along one
+                    // direction: with the pruned program when there is
+                    // one, which the interpreter runs (the JIT has no
+                    // kernel for it).
+                    let along: &dyn Evaluator = match &tape.program {
+                        Some(r) => r.as_ref(),
+                        None => e,
+                    };
+                    crease::crease_look(along, &cells[start..end], &mut v, opts, last);
                 }
                 v
             });

@@ -205,3 +205,84 @@ fn time_is_not_differentiated() {
     let (_, d) = grad::eval_point(&p, [0.0, 0.0, 0.0, 1.0]);
     assert_eq!(d, [0.0; 3]);
 }
+
+/// Programs with creases and folds, for the derivatives in a frame: a
+/// rotated box's `max` of `abs`, a `min` union of a ball and a slab, and
+/// a smooth product, each over `x, y, z`.
+fn frame_programs() -> Vec<Program> {
+    let src = [
+        "max(max(abs(0.8*x + 0.6*y), abs(z - 0.1)), abs(0.6*x - 0.8*y)) = 0.5;",
+        "min(x^2 + y^2 + z^2 - 0.4, max(z - 0.2, -z - 0.3)) = 0;",
+        "sin(2*x) * exp(y) - z = 0;",
+    ];
+    src.iter()
+        .map(|s| {
+            let opts = isoc::CompileOptions::default();
+            let src = format!("domain [-1, 1]^3; surface {s}");
+            isoc::Surface::compile(&src, "frame.iso", &opts)
+                .expect("a valid surface")
+                .program
+        })
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(cfg())]
+
+    /// Derivatives in a frame whose first column is a random unit vector
+    /// `d` enclose `d·∇F` at points of the box (where `F` has a gradient
+    /// there), and in the axes' frame they are [`grad::eval`]'s bit for
+    /// bit.
+    #[test]
+    fn derivatives_in_a_frame_enclose_the_directional_derivative(
+        which in 0usize..3,
+        lo in prop::array::uniform3(-1.0f64..0.8),
+        side in 0.01f64..0.6,
+        dir in prop::array::uniform3(-1.0f64..1.0),
+        ts in prop::collection::vec(prop::array::uniform3(0.0f64..=1.0), 16),
+    ) {
+        let p = &frame_programs()[which];
+        let d = glam::DVec3::from_array(dir);
+        prop_assume!(d.length() > 0.1);
+        let d = d.normalize();
+        let (e1, e2) = d.any_orthonormal_pair();
+        let frame: grad::Frame = std::array::from_fn(|i| [d[i], e1[i], e2[i]]);
+        let b = [0, 1, 2].map(|k| Interval::new(lo[k], lo[k] + side));
+        let input = [b[0], b[1], b[2], Interval::point(0.0)];
+        prop_assert_eq!(grad::eval_in(p, input, &grad::AXES), grad::eval(p, input));
+        let along = grad::eval_in(p, input, &frame).grad[0];
+        for t in ts {
+            let q = [0, 1, 2].map(|k| lo[k] + side * t[k]);
+            let (_, g) = grad::eval_point(p, [q[0], q[1], q[2], 0.0]);
+            let dd = d.dot(glam::DVec3::from_array(g));
+            if dd.is_finite() {
+                // The dot product here rounds; the enclosure is of the
+                // exact one.
+                let slack = 1e-12 * (1.0 + dd.abs());
+                prop_assert!(along.lo - slack <= dd && dd <= along.hi + slack,
+                    "d·∇F{q:?} = {dd:e} not in {along:?}");
+            }
+        }
+    }
+}
+
+/// Across a right-angled crease (`max(x, y)` about the origin) the box
+/// hull of the gradient holds the zero vector, but the derivative along
+/// the bisector is `1/√2` on both faces: the enclosure along it excludes
+/// zero (what the octree's crease look relies on).
+#[test]
+fn along_the_bisector_a_crease_has_no_zero_derivative() {
+    let p = binary(BinOp::Max);
+    let b = [
+        Interval::new(-0.1, 0.1),
+        Interval::new(-0.1, 0.1),
+        Interval::point(0.0),
+        Interval::point(0.0),
+    ];
+    let g = grad::eval(&p, b);
+    assert!(g.grad.iter().all(|c| c.contains(0.0)));
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    let frame: grad::Frame = [[h, -h, 0.0], [h, h, 0.0], [0.0, 0.0, 1.0]];
+    let along = grad::eval_in(&p, b, &frame).grad[0];
+    assert!(along.lo > 0.7 && along.hi < 0.71, "{along:?}");
+}
