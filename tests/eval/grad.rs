@@ -208,8 +208,8 @@ fn time_is_not_differentiated() {
 
 /// Programs with creases and folds, for the derivatives in a frame: a
 /// rotated box's `max` of `abs`, a `min` union of a ball and a slab, and
-/// a smooth product, each over `x, y, z`.
-fn frame_programs() -> Vec<Program> {
+/// a smooth product, each over `x, y, z`; compiled once for all cases.
+static FRAME_PROGRAMS: std::sync::LazyLock<Vec<Program>> = std::sync::LazyLock::new(|| {
     let src = [
         "max(max(abs(0.8*x + 0.6*y), abs(z - 0.1)), abs(0.6*x - 0.8*y)) = 0.5;",
         "min(x^2 + y^2 + z^2 - 0.4, max(z - 0.2, -z - 0.3)) = 0;",
@@ -224,7 +224,7 @@ fn frame_programs() -> Vec<Program> {
                 .program
         })
         .collect()
-}
+});
 
 proptest! {
     #![proptest_config(cfg())]
@@ -241,7 +241,7 @@ proptest! {
         dir in prop::array::uniform3(-1.0f64..1.0),
         ts in prop::collection::vec(prop::array::uniform3(0.0f64..=1.0), 16),
     ) {
-        let p = &frame_programs()[which];
+        let p = &FRAME_PROGRAMS[which];
         let d = glam::DVec3::from_array(dir);
         prop_assume!(d.length() > 0.1);
         let d = d.normalize();
