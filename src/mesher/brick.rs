@@ -43,7 +43,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 
 use super::stitch::{Stitched, Stitcher};
-use super::{MeshOptions, MeshReport, Stage, Timings, chord, coarsen, crease, ms, smooth, weld};
+use super::{MeshOptions, MeshReport, Stage, Timings, coarsen, crease, ms, smooth, weld};
 use crate::cancel::{Cancel, Cancelled};
 use crate::dual;
 use crate::eval::Evaluator;
@@ -203,17 +203,6 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
     permute(&mut origins.ids, &new_of_old);
     permute(&mut origins.sides, &new_of_old);
     let tau = opts.octree.chord_tolerance(domain);
-    if let Some(tau) = tau {
-        chord::split_edges_in(
-            &mut mesh,
-            &mut feature,
-            Some(&mut origins),
-            &field,
-            t,
-            tau,
-            cancel,
-        )?;
-    }
     let polygonize_ms = ms(t0);
 
     cancel.check()?;
@@ -242,12 +231,18 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
         cancel,
     )?;
     if let Some(tau) = tau {
-        // The round after smoothing: numbered after the others.
-        let round = Some((&mut origins, chord::ROUNDS as u32));
-        chord::split_round_in(&mut mesh, &mut feature, round, &field, t, tau);
-        let on_seam = seam(&mesh, &origins);
-        let (origins, feature) = (Some(&mut origins), Some(&mut feature));
-        weld::weld_coincident_in(&mut mesh, &mut Vec::new(), &on_seam, origins, feature);
+        let smoothed = opts.smooth > 0;
+        let origins = Some(&mut origins);
+        super::split_after_smoothing(
+            &mut mesh,
+            &mut feature,
+            origins,
+            &field,
+            t,
+            tau,
+            smoothed,
+            cancel,
+        )?;
     }
     let smooth_ms = ms(t0);
 

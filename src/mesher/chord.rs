@@ -18,9 +18,13 @@
 //! by the edge's triangles, so the mesh stays conforming: topology,
 //! closedness and orientation are kept, a boundary edge stays on the
 //! boundary. The decision and the new vertex depend on the edge alone,
-//! so the result does not depend on the order of the edges. Edges between
-//! two crease vertices ([`super::crease`]) are left alone (their midpoint
-//! is off the crease), and so are boundary edges (on the domain's faces,
+//! so the result does not depend on the order of the edges. Edges with a
+//! crease vertex for an end ([`super::crease`]) are left alone: between
+//! two, the midpoint is off the crease; from one, a split changes the fan
+//! of a crease point, whose normal is one side's and at a corner of three
+//! faces lopsided already, and can turn the fan past 120° from it
+//! (colonnade.vm at level 6, with the splits after smoothing). So are
+//! boundary edges (on the domain's faces,
 //! where a projected midpoint would not be) and any edge without exactly
 //! two triangles; new vertices are not crease vertices, and are ambiguous
 //! when an end of their edge is.
@@ -37,6 +41,10 @@
 //! centroid stands off while its edges do not is not split. The octree's
 //! chord criterion ([`crate::octree::OctreeOptions::chord`]) decides the
 //! coarse sizes; this pass only corrects the last factor below a level.
+//! The mesher runs it after coarsening and smoothing (`split_after_smoothing`
+//! in [`super`]): its triangles get one smoothing pass. Next to a crease
+//! the faces keep the coarsened mesh's edges (on colonnade.vm at level 8
+//! the chord error's 99.9th percentile is the same, 0.236 cells).
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -223,7 +231,7 @@ fn splits<E: Evaluator + ?Sized>(
 }
 
 /// The edges (smaller index first, sorted) with exactly two triangles and
-/// not both ends on a crease, among those with an end numbered `fresh` or
+/// no end on a crease, among those with an end numbered `fresh` or
 /// more. A boundary edge lies on the domain's face, where a projected
 /// midpoint would not. In a `part` of a mesh, also the edges with one
 /// triangle off ∂Ω (a seam: see the module doc).
@@ -253,7 +261,7 @@ fn inner_edges(
                 for k in 0..3 {
                     let (x, y) = (t[k], t[(k + 1) % 3]);
                     let (lo, hi) = (x.min(y), x.max(y));
-                    if lo == a && hi >= fresh && !(crease(lo) && crease(hi)) {
+                    if lo == a && hi >= fresh && !(crease(lo) || crease(hi)) {
                         uses.push(hi);
                     }
                 }

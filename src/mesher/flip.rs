@@ -193,7 +193,12 @@ impl Flips {
 
     /// Flips the edge of half-edge `h` if allowed and worthwhile; returns
     /// the half-edges of the quadrilateral's sides when it did.
-    fn try_flip(&mut self, mesh: &mut Mesh, h: u32) -> Option<[u32; 4]> {
+    fn try_flip(
+        &mut self,
+        mesh: &mut Mesh,
+        h: u32,
+        allow: &dyn Fn(&Mesh, u32, u32) -> bool,
+    ) -> Option<[u32; 4]> {
         let g = self.twin[h as usize];
         if g == NONE {
             return None;
@@ -237,7 +242,7 @@ impl Flips {
         // old pair was flatter (a flip across a ridge of the mesh).
         let n = |t: [u32; 3]| mesh.face_normal(t).normalize_or_zero();
         let crease = |ts: &[[u32; 3]; 2]| n(ts[0]).dot(n(ts[1]));
-        if crease(&new) < crease(&old).min(COS_OK) {
+        if crease(&new) < crease(&old).min(COS_OK) || !allow(mesh, c, d) {
             return None;
         }
         // Old half-edges: t1 = p→q (h), q→c, c→p; t2 = q→p (g), p→d, d→q.
@@ -328,6 +333,12 @@ impl Flips {
     /// (or [`MAX_SWEEPS`]); returns how many flips were made. See the
     /// module doc.
     pub fn run(&mut self, mesh: &mut Mesh) -> usize {
+        self.run_where(mesh, &|_, _, _| true)
+    }
+
+    /// [`Flips::run`], making only the flips whose new edge `c–d` `allow`
+    /// accepts (asked last, after every other test holds).
+    pub fn run_where(&mut self, mesh: &mut Mesh, allow: &dyn Fn(&Mesh, u32, u32) -> bool) -> usize {
         self.aspect = mesh
             .triangles
             .par_iter()
@@ -362,7 +373,7 @@ impl Flips {
             }
             let mut next = Vec::new();
             for h in std::mem::take(&mut work) {
-                if let Some(sides) = self.try_flip(mesh, h) {
+                if let Some(sides) = self.try_flip(mesh, h, allow) {
                     flips += 1;
                     next.extend(sides);
                 }

@@ -1,10 +1,10 @@
 //! The robust adaptive mesher end to end (Paiva et al. §4): octree →
 //! dual grid → dual marching cubes (MC33) with vertices bisected onto the
 //! surface → coincident vertices welded ([`weld`]) → sharp creases
-//! ([`crease`]) → chord splits ([`chord`]) → with a chord tolerance and
-//! smoothing on, measured edge collapses ([`coarsen`]) → smoothing (edge
-//! flips and tangential relaxation) → a last chord round, and the weld
-//! again → report.
+//! ([`crease`]) → with a chord tolerance and smoothing on, measured edge
+//! collapses ([`coarsen`]) → smoothing (edge flips and tangential
+//! relaxation) → chord splits ([`chord`]), one smoothing pass around them
+//! and a last chord round, and the weld again → report.
 //! The report's topology is computed from the mesh itself
 //! ([`crate::mesh::topology`]), never assumed.
 //!
@@ -31,8 +31,9 @@ use crate::cancel::{Cancel, Cancelled, uncancelled};
 use crate::eval::Evaluator;
 use crate::geometry::Bounds;
 use crate::mesh::order::{permute, retain};
+use crate::mesh::origin::Origins;
 use crate::mesh::{Mesh, quality, topology};
-use crate::octree::{Octree, OctreeOptions, OctreeStats, Refine};
+use crate::octree::{Chord, Octree, OctreeOptions, OctreeStats, Refine};
 use crate::polygonize::extract;
 use crate::surface::Surface;
 
@@ -270,11 +271,6 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     // the stages that add to the mesh.
     drop((values, active, cell_of));
     permute(&mut creases.feature, &mesh.reorder());
-    if let Some(tau) = tau {
-        chord::split_edges(&mut mesh, &mut creases.feature, &field, t, tau, cancel)?;
-        // The splits' vertices and triangles came last: in order again.
-        permute(&mut creases.feature, &mesh.reorder());
-    }
     let polygonize_ms = ms(t0);
 
     cancel.check()?;
@@ -293,11 +289,17 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     let moves =
         smooth::smooth_keeping(&mut mesh, &field, t, opts.smooth, &creases.feature, cancel)?;
     if let Some(tau) = tau {
-        // Relaxation moves vertices along the surface and may stretch an
-        // edge past the tolerance again: one more round on the result.
-        chord::split_round(&mut mesh, &mut creases.feature, &field, t, tau);
-        let feature = Some(&mut creases.feature);
-        weld::weld_coincident_in(&mut mesh, &mut Vec::new(), &[], None, feature);
+        let smoothed = opts.smooth > 0;
+        split_after_smoothing(
+            &mut mesh,
+            &mut creases.feature,
+            None,
+            &field,
+            t,
+            tau,
+            smoothed,
+            cancel,
+        )?;
     }
     let smooth_ms = ms(t0);
     cancel.check()?;
@@ -332,6 +334,65 @@ fn mesh_refining<E: Evaluator + ?Sized>(
         },
     };
     Ok((mesh, report, tree, creases.feature))
+}
+
+/// The chord splits of a coarsened and smoothed mesh (of the mesh as
+/// extracted with `smoothed` false), as the whole run and each brick
+/// ([`brick`], with its vertices' `origins`) make them: the rounds of
+/// [`chord::split_edges_in`]; with `smoothed`, two smoothing passes over the
+/// corners of the split triangles (a single split makes two 30-60-90
+/// triangles of an equilateral one) whose flips and moves make no edge
+/// the splits would split ([`smooth::smooth_within`]); one more round
+/// (for a brick, numbered after the others); and the coincident vertices
+/// welded.
+///
+/// Splitting after the collapses rather than before them splits only what
+/// the coarsened mesh needs: on decocube at level 8, 117k triangles were
+/// extracted, 103k more split before coarsening and 83k of them collapsed
+/// again (`docs/faithful.md`).
+#[allow(clippy::too_many_arguments)]
+fn split_after_smoothing<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    feature: &mut Vec<bool>,
+    mut origins: Option<&mut Origins>,
+    f: &E,
+    t: f64,
+    tau: Chord,
+    smoothed: bool,
+    cancel: &Cancel,
+) -> Result<(), Cancelled> {
+    let seam = |mesh: &Mesh, origins: Option<&Origins>| match origins {
+        Some(o) => brick::seam(mesh, o),
+        None => Vec::new(),
+    };
+    let old = mesh.positions.len() as u32;
+    chord::split_edges_in(mesh, feature, origins.as_deref_mut(), f, t, tau, cancel)?;
+    if smoothed {
+        // Only the corners of the split triangles move (and a brick's seam
+        // stays).
+        let mut still = seam(mesh, origins.as_deref());
+        still.resize(mesh.positions.len(), false);
+        let mut split = vec![false; mesh.positions.len()];
+        for tri in mesh
+            .triangles
+            .iter()
+            .filter(|t| t.iter().any(|&v| v >= old))
+        {
+            for &v in tri {
+                split[v as usize] = true;
+            }
+        }
+        for (s, split) in still.iter_mut().zip(split) {
+            *s |= !split;
+        }
+        smooth::smooth_within(mesh, f, t, feature, &still, tau, cancel)?;
+    }
+    // The round after smoothing: numbered after the others.
+    let round = origins.as_deref_mut().map(|o| (o, chord::ROUNDS as u32));
+    chord::split_round_in(mesh, feature, round, f, t, tau);
+    let on_seam = seam(mesh, origins.as_deref());
+    weld::weld_coincident_in(mesh, &mut Vec::new(), &on_seam, origins, Some(feature));
+    Ok(())
 }
 
 /// What [`mesh_to_tolerance`] achieved.

@@ -166,6 +166,72 @@ fn chord_splits_keep_the_mesh_and_bring_midpoints_within_the_tolerance() {
     );
 }
 
+/// The smoothing pass after the chord splits (`smooth_within`) holds its
+/// flips and moves to the tolerance: on a coarse torus split to a tenth of
+/// its worst midpoint distance, no edge stands past the tolerance after it
+/// that did not before, while the same pass unheld (`smooth_part`)
+/// stretches edges past it; both raise the share of shapely triangles the
+/// splits lowered.
+#[test]
+fn the_pass_after_the_splits_stretches_no_edge_past_the_tolerance() {
+    use isoc::mesher::smooth;
+    let s = surface("domain [-1.5, 1.5]^3; surface (sqrt(x^2 + y^2) - 1)^2 + z^2 - 0.09;");
+    let (mut mesh, _) = mesh_at(
+        &s,
+        OctreeOptions {
+            max_level: 6,
+            chord: None,
+            ..OctreeOptions::default()
+        },
+    );
+    let far = |m: &isoc::Mesh, tau: f64| -> std::collections::BTreeSet<(u32, u32)> {
+        m.triangles
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .filter(|&(a, b)| {
+                let mid = (m.positions[a as usize] + m.positions[b as usize]) * 0.5;
+                let (v, g) = s.point_grad([mid.x, mid.y, mid.z, 0.0]);
+                v.abs() / DVec3::from_array(g).length() > tau
+            })
+            .map(|(a, b)| (a.min(b), a.max(b)))
+            .collect()
+    };
+    let tau = {
+        let p = &mesh.positions;
+        let d = mesh
+            .triangles
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .map(|(a, b)| {
+                let mid = (p[a as usize] + p[b as usize]) * 0.5;
+                let (v, g) = s.point_grad([mid.x, mid.y, mid.z, 0.0]);
+                v.abs() / DVec3::from_array(g).length()
+            })
+            .fold(0.0, f64::max);
+        d / 10.0
+    };
+    let chord = isoc::octree::Chord::uniform(tau);
+    let never = isoc::Cancel::new();
+    let mut feature = Vec::new();
+    isoc::mesher::chord::split_edges(&mut mesh, &mut feature, &s, 0.0, chord, &never)
+        .expect("never cancelled");
+    let before = far(&mesh, tau);
+    let good = isoc::mesh::quality::aspect_good;
+    let mut held = mesh.clone();
+    let moves = smooth::smooth_within(&mut held, &s, 0.0, &feature, &[], chord, &never)
+        .expect("uncancelled");
+    let mut free = mesh.clone();
+    smooth::smooth_part(&mut free, &s, 0.0, 1, &feature, &[], &never).expect("uncancelled");
+    assert!(moves > 0);
+    let stretched = far(&held, tau).difference(&before).count();
+    assert_eq!(stretched, 0, "{} edges past {tau:e} before", before.len());
+    let unheld = far(&free, tau).difference(&before).count();
+    assert!(unheld > 0, "the unheld pass stretched no edge");
+    assert!(good(&held) > good(&mesh) && good(&free) > good(&mesh));
+    let topo = isoc::mesh::topology::analyze(&held);
+    assert!(topo.manifold() && topo.watertight, "{topo:?}");
+}
+
 /// After its first round, [`split_edges`] measures only the edges with a
 /// new vertex for an end (the others, with their ends, are as the round
 /// before measured them): the same mesh, bit for bit, as rounds of
