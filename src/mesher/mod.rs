@@ -3,8 +3,9 @@
 //! surface → coincident vertices welded ([`weld`]) → sharp creases
 //! ([`crease`]) → with a chord tolerance and smoothing on, measured edge
 //! collapses ([`coarsen`]) → smoothing (edge flips and tangential
-//! relaxation) → chord splits ([`chord`]), one smoothing pass around them
-//! and a last chord round, and the weld again → report.
+//! relaxation) → chord splits ([`chord`]), two smoothing passes around
+//! them held to the tolerance and a last chord round, and the weld again
+//! → report.
 //! The report's topology is computed from the mesh itself
 //! ([`crate::mesh::topology`]), never assumed.
 //!

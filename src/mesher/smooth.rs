@@ -70,6 +70,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use smallvec::SmallVec;
 
+use super::chord::{beyond, midpoint_tolerance};
 use super::crease::SPLIT_DEG;
 use super::flip::Flips;
 use crate::cancel::{Cancel, Cancelled, uncancelled};
@@ -78,7 +79,6 @@ use crate::eval::sample::grads_at;
 use crate::mesh::quality::{aspect, aspect_ratio};
 use crate::mesh::{Mesh, Star};
 use crate::octree::Chord;
-use crate::octree::criteria::turn;
 use crate::roots::project_along_batch;
 
 /// Whether moving vertex `v` to `p`, where the surface's normal is `n`,
@@ -266,13 +266,12 @@ const HELD_PASSES: usize = 2;
 
 /// [`HELD_PASSES`] passes of [`smooth_part`] in which no flip or move
 /// stretches an edge past the chord tolerance `tau`: a flip is refused, or
-/// a move skipped, when
-/// the midpoint of its new edge, or of one of the moved vertex's edges,
-/// would stand farther than `tau` (at the edge's curvature, first order,
-/// as [`super::chord`] measures) off `f = 0`. For the triangles of chord
-/// splits, which the splits left
-/// within the tolerance: relaxing them freely would stretch edges that
-/// another round would split again.
+/// a move skipped, when the midpoint of its new edge, or of one of the
+/// moved vertex's edges, would stand farther than `tau` (at the edge's
+/// curvature, first order, as [`super::chord`] measures) off `f = 0`. For
+/// the triangles of chord splits, which the splits left within the
+/// tolerance: relaxing them freely would stretch edges that another round
+/// would split again.
 pub fn smooth_within<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     f: &E,
@@ -386,18 +385,13 @@ fn smooth_with<E: Evaluator + ?Sized>(
 }
 
 /// Whether the midpoint of the edge `c–d` of `m` stands within `tau` of
-/// `f(·, t) = 0` (first order, at the edge's curvature; no gradient
-/// there passes, as in [`within_chord`]).
+/// `f(·, t) = 0` (as [`super::chord`] measures it; no gradient there
+/// passes).
 fn edge_within<E: Evaluator + ?Sized>(m: &Mesh, f: &E, t: f64, tau: Chord, c: u32, d: u32) -> bool {
-    let (pc, pd) = (m.positions[c as usize], m.positions[d as usize]);
-    let mid = (pc + pd) * 0.5;
+    let end = |v: u32| (m.positions[v as usize], m.normals[v as usize]);
+    let (mid, tol) = midpoint_tolerance(tau, end(c), end(d));
     let (v, g) = f.point_grad([mid.x, mid.y, mid.z, t]);
-    let bend = turn(
-        m.normals[c as usize].to_array(),
-        m.normals[d as usize].to_array(),
-    );
-    let far = v.abs() / DVec3::from_array(g).length() > tau.at(bend, pc.distance(pd));
-    !far
+    !beyond(v, DVec3::from_array(g), tol)
 }
 
 /// The `candidates` (vertex, projected position, gradient there) whose
@@ -425,14 +419,10 @@ fn within_chord<E: Evaluator + ?Sized>(
                 .collect();
             around.sort_unstable();
             around.dedup();
-            let n = g.normalize_or_zero().to_array();
+            let at = (p, g.normalize_or_zero());
             around
                 .iter()
-                .map(|&w| {
-                    let q = pos[w as usize];
-                    let bend = turn(n, normals[w as usize].to_array());
-                    ((p + q) * 0.5, tau.at(bend, p.distance(q)))
-                })
+                .map(|&w| midpoint_tolerance(tau, at, (pos[w as usize], normals[w as usize])))
                 .collect()
         })
         .collect();
@@ -446,7 +436,7 @@ fn within_chord<E: Evaluator + ?Sized>(
             let far = edges
                 .iter()
                 .zip(measured.by_ref())
-                .filter(|&(&(_, tol), (v, g))| v.abs() / g.length() > tol)
+                .filter(|&(&(_, tol), (v, g))| beyond(v, g, tol))
                 .count();
             far == 0
         })

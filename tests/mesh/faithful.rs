@@ -184,32 +184,34 @@ fn the_pass_after_the_splits_stretches_no_edge_past_the_tolerance() {
             ..OctreeOptions::default()
         },
     );
-    let far = |m: &isoc::Mesh, tau: f64| -> std::collections::BTreeSet<(u32, u32)> {
+    // Each edge (smaller end first) with its midpoint's first-order
+    // distance to the surface.
+    let offsets = |m: &isoc::Mesh| -> Vec<((u32, u32), f64)> {
         m.triangles
             .iter()
             .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-            .filter(|&(a, b)| {
+            .map(|(a, b)| {
                 let mid = (m.positions[a as usize] + m.positions[b as usize]) * 0.5;
                 let (v, g) = s.point_grad([mid.x, mid.y, mid.z, 0.0]);
-                v.abs() / DVec3::from_array(g).length() > tau
+                (
+                    (a.min(b), a.max(b)),
+                    v.abs() / DVec3::from_array(g).length(),
+                )
             })
-            .map(|(a, b)| (a.min(b), a.max(b)))
             .collect()
     };
-    let tau = {
-        let p = &mesh.positions;
-        let d = mesh
-            .triangles
-            .iter()
-            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-            .map(|(a, b)| {
-                let mid = (p[a as usize] + p[b as usize]) * 0.5;
-                let (v, g) = s.point_grad([mid.x, mid.y, mid.z, 0.0]);
-                v.abs() / DVec3::from_array(g).length()
-            })
-            .fold(0.0, f64::max);
-        d / 10.0
+    let far = |m: &isoc::Mesh, tau: f64| -> std::collections::BTreeSet<(u32, u32)> {
+        offsets(m)
+            .into_iter()
+            .filter(|&(_, d)| d > tau)
+            .map(|(e, _)| e)
+            .collect()
     };
+    let tau = offsets(&mesh)
+        .into_iter()
+        .map(|(_, d)| d)
+        .fold(0.0, f64::max)
+        / 10.0;
     let chord = isoc::octree::Chord::uniform(tau);
     let never = isoc::Cancel::new();
     let mut feature = Vec::new();
