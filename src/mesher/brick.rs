@@ -240,7 +240,7 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
             &field,
             t,
             tau,
-            smoothed,
+            (smoothed, opts.creases),
             cancel,
         )?;
     }

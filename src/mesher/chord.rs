@@ -14,7 +14,19 @@
 //! ends' normals), and
 //! re-triangulates each triangle by the number of its split edges (one:
 //! two triangles; two: the corner triangle and the remaining quad by its
-//! shorter diagonal; three: four triangles). Every split vertex is shared
+//! shorter diagonal; three: four triangles). An edge whose ends' normals
+//! turn by more than [`SPLIT_DEG`] (and less than 120°, past which its
+//! ends are more likely two sheets of a thin wall) may cut a crease off:
+//! a chamfer the crease pass ([`super::crease`]) left. With `creases`, such
+//! an edge is split onto the crease instead ([`onto_creases`]): from the
+//! point nearest its midpoint where the ends' tangent planes meet, onto
+//! `f = 0` along the ends' mean normal; where `f`'s gradients a quarter
+//! of the way towards each end turn by at least 0.8 of the ends' normals'
+//! turn (a kink, not a bend), onto the line where those two sides' planes
+//! meet and again onto `f = 0`; the split is made when no new triangle
+//! turns against its corners' normals and the fans of the four vertices
+//! around it still face along their normals. The new vertex is a crease
+//! vertex with one side's normal, so its edges are not split again. Every split vertex is shared
 //! by the edge's triangles, so the mesh stays conforming: topology,
 //! closedness and orientation are kept, a boundary edge stays on the
 //! boundary. The decision and the new vertex depend on the edge alone,
@@ -26,7 +38,8 @@
 //! (colonnade.vm at level 6, with the splits after smoothing). So are
 //! boundary edges (on the domain's faces,
 //! where a projected midpoint would not be) and any edge without exactly
-//! two triangles; new vertices are not crease vertices, and are ambiguous
+//! two triangles; new vertices are crease vertices only when split onto a
+//! crease, and are ambiguous
 //! when an end of their edge is.
 //!
 //! A part of a mesh (a brick of a bricked run, with its vertices'
@@ -44,8 +57,10 @@
 //! The mesher runs it after coarsening and smoothing (`split_after_smoothing`
 //! in [`super`]): its triangles get two smoothing passes held to the
 //! tolerance (`smooth::smooth_within`). Next to a crease
-//! the faces keep the coarsened mesh's edges (on colonnade.vm at level 8
-//! the chord error's 99.9th percentile is the same, 0.236 cells).
+//! the faces keep the coarsened mesh's edges. A crease split needs both
+//! of its edge's triangles, so on a brick's seam (one triangle in each
+//! brick) an edge is not split onto a crease; and it puts one vertex on the
+//! crease per edge, so a long chamfer is halved, not removed.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -59,7 +74,9 @@ use crate::mesh::origin::Origins;
 use crate::mesh::{Mesh, Star};
 use crate::octree::Chord;
 use crate::octree::criteria::turn;
-use crate::roots::project_along_batch;
+use crate::roots::{at, line_zero, project_along_batch};
+
+use super::crease::SPLIT_DEG;
 
 /// Rounds of splitting (each at most halves an edge).
 pub const ROUNDS: usize = 3;
@@ -84,11 +101,14 @@ pub fn split_edges<E: Evaluator + ?Sized>(
     tau: Chord,
     cancel: &Cancel,
 ) -> Result<usize, Cancelled> {
-    split_edges_in(mesh, feature, None, f, t, tau, cancel)
+    split_edges_in(mesh, feature, None, f, t, tau, true, cancel)
 }
 
 /// [`split_edges`] on a part of a mesh whose vertices have `origins` (see
-/// the module doc), kept in step; `None` is [`split_edges`].
+/// the module doc), kept in step; `None` is [`split_edges`]. Without
+/// `creases` (`--no-creases`), no edge is split onto a crease
+/// ([`onto_creases`]).
+#[allow(clippy::too_many_arguments)]
 pub fn split_edges_in<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     feature: &mut Vec<bool>,
@@ -96,6 +116,7 @@ pub fn split_edges_in<E: Evaluator + ?Sized>(
     f: &E,
     t: f64,
     tau: Chord,
+    creases: bool,
     cancel: &Cancel,
 ) -> Result<usize, Cancelled> {
     let (mut total, mut fresh) = (0, 0);
@@ -103,7 +124,7 @@ pub fn split_edges_in<E: Evaluator + ?Sized>(
         cancel.check()?;
         let part = origins.as_deref_mut().map(|o| (o, round as u32));
         let before = mesh.positions.len() as u32;
-        let n = split_round_from(mesh, feature, part, f, t, tau, fresh);
+        let n = split_round_from(mesh, feature, part, f, t, (tau, creases), fresh);
         if n == 0 {
             break;
         }
@@ -123,12 +144,13 @@ pub fn split_round<E: Evaluator + ?Sized>(
     t: f64,
     tau: Chord,
 ) -> usize {
-    split_round_in(mesh, feature, None, f, t, tau)
+    split_round_in(mesh, feature, None, f, t, tau, true)
 }
 
 /// [`split_round`] on a part of a mesh (see [`split_edges_in`]) whose
 /// vertices have `origins`, as its round number `round` (the ids of the
-/// new vertices depend on it: [`Origins::push_split`]).
+/// new vertices depend on it: [`Origins::push_split`]), with `creases`
+/// as in [`split_edges_in`].
 pub fn split_round_in<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     feature: &mut Vec<bool>,
@@ -136,27 +158,29 @@ pub fn split_round_in<E: Evaluator + ?Sized>(
     f: &E,
     t: f64,
     tau: Chord,
+    creases: bool,
 ) -> usize {
-    split_round_from(mesh, feature, origins, f, t, tau, 0)
+    split_round_from(mesh, feature, origins, f, t, (tau, creases), 0)
 }
 
 /// [`split_round_in`] on the edges with an end numbered `fresh` or more
-/// (the rest measured by the last round, unchanged since).
+/// (the rest measured by the last round, unchanged since), with the
+/// tolerance and whether edges may be split onto creases.
 fn split_round_from<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     feature: &mut Vec<bool>,
     origins: Option<(&mut Origins, u32)>,
     f: &E,
     t: f64,
-    tau: Chord,
+    tau: (Chord, bool),
     fresh: u32,
 ) -> usize {
     let part = origins.as_ref().map(|(o, _)| &**o);
     let splits = splits(mesh, feature, part, f, t, tau, fresh);
     apply(mesh, feature, &splits);
     if let Some((o, round)) = origins {
-        for &((a, b), _, _) in &splits {
-            o.push_split(a, b, round);
+        for s in &splits {
+            o.push_split(s.edge.0, s.edge.1, round);
         }
     }
     splits.len()
@@ -166,69 +190,202 @@ fn split_round_from<E: Evaluator + ?Sized>(
 /// one task's edges at a time, not for the whole mesh.
 const EDGES_PER_TASK: usize = 4096;
 
-/// The edges to split (smaller index first) and their new vertices'
-/// positions and gradients.
+/// An edge (smaller index first) and a point for its new vertex.
+type OnEdge = ((u32, u32), DVec3);
+
+/// A split: the edge (smaller index first), its new vertex's position and
+/// gradient, and whether the new vertex is a crease vertex (see
+/// [`across`]).
+#[derive(Clone, Copy)]
+struct Split {
+    edge: (u32, u32),
+    at: DVec3,
+    grad: DVec3,
+    crease: bool,
+}
+
+/// The edges to split and their new vertices.
 fn splits<E: Evaluator + ?Sized>(
     mesh: &Mesh,
     feature: &[bool],
     part: Option<&Origins>,
     f: &E,
     t: f64,
-    tau: Chord,
+    (tau, creases): (Chord, bool),
     fresh: u32,
-) -> Vec<((u32, u32), DVec3, DVec3)> {
-    let edges = inner_edges(mesh, feature, part, fresh);
-    let (p, n) = (&mesh.positions, &mesh.normals);
+) -> Vec<Split> {
+    let star = Star::new(mesh);
+    let edges = inner_edges(mesh, &star, feature, part, fresh);
     edges
         .par_chunks(EDGES_PER_TASK)
         .flat_map_iter(|chunk| {
-            let mids: Vec<DVec3> = chunk
+            let far = far_edges(mesh, chunk, f, t, tau);
+            let onto = if creases {
+                onto_creases(mesh, &star, &far, f, t)
+            } else {
+                vec![None; far.len()]
+            };
+            // The others from their midpoints, in the order of the edges.
+            let rest: Vec<((u32, u32), DVec3, f64)> = far
                 .iter()
-                .map(|&(a, b)| (p[a as usize] + p[b as usize]) * 0.5)
+                .zip(&onto)
+                .filter(|(_, c)| c.is_none())
+                .map(|(&e, _)| e)
                 .collect();
-            let measured = grads_at(f, t, &mids);
-            let far: Vec<((u32, u32), (DVec3, f64))> = chunk
-                .iter()
-                .zip(mids)
-                .zip(measured)
-                // NaN (no gradient) is not a measurement: no split.
-                .filter(|&((&(a, b), _), (v, g))| {
-                    let (a, b) = (a as usize, b as usize);
-                    let (_, tol) = midpoint_tolerance(tau, (p[a], n[a]), (p[b], n[b]));
-                    beyond(v, g, tol)
-                })
-                .map(|((&(a, b), mid), _)| {
-                    let reach = REACH * p[a as usize].distance(p[b as usize]);
-                    ((a, b), (mid, reach))
-                })
-                .collect();
-            let starts: Vec<(DVec3, f64)> = far.iter().map(|&(_, s)| s).collect();
-            let projected: Vec<((u32, u32), DVec3)> = far
-                .iter()
-                .zip(project_along_batch(f, t, &starts))
-                .filter_map(|(&(e, _), r)| r.map(|(q, _)| (e, q)))
-                .collect();
-            // The gradient at each new vertex itself (its normal): on the
-            // sheet of the edge's ends, not across a thin wall.
-            let qs: Vec<DVec3> = projected.iter().map(|&(_, q)| q).collect();
-            let mut gs: Vec<DVec3> = grads_at(f, t, &qs).into_iter().map(|(_, g)| g).collect();
-            // Where two sides of a kink tie at the new vertex, the side
-            // the ends' normals agree with.
-            let outward: Vec<DVec3> = projected
-                .iter()
-                .map(|&((a, b), _)| n[a as usize] + n[b as usize])
-                .collect();
-            orient_at_kinks(f, t, &qs, &mut gs, &outward);
-            projected
-                .into_iter()
-                .zip(gs)
-                .filter(|&(((a, b), _), g)| {
-                    g.is_finite() && g.dot(n[a as usize]) > 0.0 && g.dot(n[b as usize]) > 0.0
-                })
-                .map(|((e, q), g)| (e, q, g))
-                .collect::<Vec<_>>()
+            let mut rest = from_midpoints(mesh, &rest, f, t).into_iter().peekable();
+            let mut out = Vec::new();
+            for (&(e, _, _), c) in far.iter().zip(onto) {
+                match c {
+                    Some(split) => out.push(split),
+                    None => {
+                        if let Some(split) = rest.next_if(|s| s.edge == e) {
+                            out.push(split);
+                        }
+                    }
+                }
+            }
+            out
         })
         .collect()
+}
+
+/// The edges of `chunk` whose midpoints stand farther than the tolerance
+/// off `f = 0`, with their midpoints and how far a projection may go.
+fn far_edges<E: Evaluator + ?Sized>(
+    mesh: &Mesh,
+    chunk: &[(u32, u32)],
+    f: &E,
+    t: f64,
+    tau: Chord,
+) -> Vec<((u32, u32), DVec3, f64)> {
+    let (p, n) = (&mesh.positions, &mesh.normals);
+    let mids: Vec<DVec3> = chunk
+        .iter()
+        .map(|&(a, b)| (p[a as usize] + p[b as usize]) * 0.5)
+        .collect();
+    let measured = grads_at(f, t, &mids);
+    chunk
+        .iter()
+        .zip(mids)
+        .zip(measured)
+        // NaN (no gradient) is not a measurement: no split.
+        .filter(|&((&(a, b), _), (v, g))| {
+            let (a, b) = (a as usize, b as usize);
+            let (_, tol) = midpoint_tolerance(tau, (p[a], n[a]), (p[b], n[b]));
+            beyond(v, g, tol)
+        })
+        .map(|((&(a, b), mid), _)| ((a, b), mid, REACH * p[a as usize].distance(p[b as usize])))
+        .collect()
+}
+
+/// The new vertices of `far` edges split from their midpoints: projected
+/// onto `f = 0`, with the gradient there on the sheet of the edge's ends
+/// (not across a thin wall).
+fn from_midpoints<E: Evaluator + ?Sized>(
+    mesh: &Mesh,
+    far: &[((u32, u32), DVec3, f64)],
+    f: &E,
+    t: f64,
+) -> Vec<Split> {
+    let n = &mesh.normals;
+    let starts: Vec<(DVec3, f64)> = far.iter().map(|&(_, m, r)| (m, r)).collect();
+    let projected: Vec<OnEdge> = far
+        .iter()
+        .zip(project_along_batch(f, t, &starts))
+        .filter_map(|(&(e, _, _), r)| r.map(|(q, _)| (e, q)))
+        .collect();
+    let gs = oriented_grads(f, t, &projected, n);
+    projected
+        .into_iter()
+        .zip(gs)
+        .filter(|&(((a, b), _), g)| {
+            g.is_finite() && g.dot(n[a as usize]) > 0.0 && g.dot(n[b as usize]) > 0.0
+        })
+        .map(|((edge, at), grad)| Split {
+            edge,
+            at,
+            grad,
+            crease: false,
+        })
+        .collect()
+}
+
+/// The gradient at each new vertex of `projected` (its normal); where two
+/// sides of a kink tie there, the side the ends' normals agree with.
+fn oriented_grads<E: Evaluator + ?Sized>(
+    f: &E,
+    t: f64,
+    projected: &[OnEdge],
+    n: &[DVec3],
+) -> Vec<DVec3> {
+    let qs: Vec<DVec3> = projected.iter().map(|&(_, q)| q).collect();
+    let mut gs: Vec<DVec3> = grads_at(f, t, &qs).into_iter().map(|(_, g)| g).collect();
+    let outward: Vec<DVec3> = projected
+        .iter()
+        .map(|&((a, b), _)| n[a as usize] + n[b as usize])
+        .collect();
+    orient_at_kinks(f, t, &qs, &mut gs, &outward);
+    gs
+}
+
+/// Per `far` edge, its split onto a crease of `f` when it cuts one off
+/// (a chamfer the crease pass left; the new vertex is a crease vertex):
+/// from [`across`], onto `f = 0` along the ends' mean normal, then onto
+/// the kink ([`on_kink`]) and again onto `f = 0` along the mean of the two
+/// sides' normals, with a normal there (one side's) that faces along the
+/// ends' mean. Along a mean normal, not along the gradient: at a point of
+/// one face on the crease's line the gradient is the other face's, along
+/// which `f` only touches 0.
+fn onto_creases<E: Evaluator + ?Sized>(
+    mesh: &Mesh,
+    star: &Star,
+    far: &[((u32, u32), DVec3, f64)],
+    f: &E,
+    t: f64,
+) -> Vec<Option<Split>> {
+    let (p, n) = (&mesh.positions, &mesh.normals);
+    let onto = |((ea, eb), mid, reach): ((u32, u32), DVec3, f64)| {
+        let (a, b) = (
+            (p[ea as usize], n[ea as usize]),
+            (p[eb as usize], n[eb as usize]),
+        );
+        let q = across(mid, a, b)?;
+        let q = line_zero(f, t, q, a.1 + b.1, reach)?;
+        let side = |end: DVec3| {
+            let (v, g) = f.point_grad(at(q + SIDE * (end - q), t));
+            (v, DVec3::from_array(g))
+        };
+        let sides = [side(a.0), side(b.0)];
+        let c = on_kink(q, a, b, sides, reach)?;
+        let q = line_zero(
+            f,
+            t,
+            c,
+            sides[0].1.normalize() + sides[1].1.normalize(),
+            reach,
+        )?;
+        unfolded(mesh, star, (ea, eb), q).then_some(q)
+    };
+    // Per far edge that landed, its index and (edge, new vertex).
+    let (index, landed): (Vec<usize>, Vec<OnEdge>) = far
+        .iter()
+        .enumerate()
+        .filter_map(|(i, &e)| onto(e).map(|q| (i, (e.0, q))))
+        .unzip();
+    let gs = oriented_grads(f, t, &landed, n);
+    let mut out = vec![None; far.len()];
+    for ((i, (edge, at)), grad) in index.into_iter().zip(landed).zip(gs) {
+        let (na, nb) = (n[edge.0 as usize], n[edge.1 as usize]);
+        if grad.is_finite() && grad.dot(na + nb) > 0.0 {
+            out[i] = Some(Split {
+                edge,
+                at,
+                grad,
+                crease: true,
+            });
+        }
+    }
+    out
 }
 
 /// The midpoint of the edge `a–b`, given its ends' positions and unit
@@ -250,6 +407,120 @@ pub(crate) fn beyond(v: f64, g: DVec3, tol: f64) -> bool {
     v.abs() / g.length() > tol
 }
 
+/// Where to start the projection of the midpoint `mid` of an edge whose
+/// ends' normals turn by more than [`SPLIT_DEG`]: the point nearest `mid`
+/// on the line where the ends' tangent planes meet ([`meet`]), when it
+/// lies between the ends (along the edge) and within half the edge's
+/// length of `mid`. Across a crease that the crease pass left cut off (a
+/// chamfer), the projection then lands near the crease rather than on one
+/// face, where the new vertex's normal would face away from the other end.
+fn across(mid: DVec3, (pa, na): (DVec3, DVec3), (pb, nb): (DVec3, DVec3)) -> Option<DVec3> {
+    // Past 120° the ends are more likely two sheets of a thin wall than
+    // two faces of a crease.
+    let cos = na.dot(nb);
+    if cos.is_nan() || cos >= SPLIT_DEG.to_radians().cos() || cos <= -0.5 {
+        return None;
+    }
+    let q = meet(mid, (pa, na), (pb, nb))?;
+    let (ab, len2) = (pb - pa, pa.distance_squared(pb));
+    let along = (q - pa).dot(ab);
+    ((0.0..=len2).contains(&along) && q.distance_squared(mid) <= 0.25 * len2).then_some(q)
+}
+
+/// The point nearest `x` on the line where the plane through `pa` normal
+/// to the unit `na` meets the one through `pb` normal to `nb` (`None` for
+/// parallel planes).
+fn meet(x: DVec3, (pa, na): (DVec3, DVec3), (pb, nb): (DVec3, DVec3)) -> Option<DVec3> {
+    let cos = na.dot(nb);
+    let d = na.cross(nb);
+    let det = d.length_squared();
+    if det.is_nan() || det <= 1e-12 {
+        return None;
+    }
+    // The point of both planes in the span of the normals.
+    let (ha, hb) = (na.dot(pa), nb.dot(pb));
+    let x0 = ((ha - hb * cos) * na + (hb - ha * cos) * nb) / det;
+    let q = x0 + d * ((x - x0).dot(d) / det);
+    q.is_finite().then_some(q)
+}
+
+/// How far from a point projected from [`across`] towards each end of its
+/// edge [`on_kink`] reads the two sides of `f`.
+const SIDE: f64 = 0.25;
+
+/// The crease point near `q`, a point projected from [`across`] for the
+/// edge with ends `(pa, na)`, `(pb, nb)`, from `f`'s value and gradient
+/// `sa`, `sb` at [`SIDE`] of the way towards each end: `None` unless the
+/// unit gradients there turn by at least 0.8 of the ends' normals' turn
+/// (a kink of `f` between them: on a smooth bend they turn by about half
+/// of it, the middle half of the arc), else the point nearest `q` where
+/// the two sides' first-order planes meet, if within `reach` of `q`.
+fn on_kink(
+    q: DVec3,
+    (pa, na): (DVec3, DVec3),
+    (pb, nb): (DVec3, DVec3),
+    [sa, sb]: [(f64, DVec3); 2],
+    reach: f64,
+) -> Option<DVec3> {
+    let plane = |p: DVec3, (v, g): (f64, DVec3)| {
+        let at = q + SIDE * (p - q);
+        let u = g.normalize();
+        // The side's plane: through the first-order foot of its sample.
+        (u.is_finite() && v.is_finite()).then(|| (at - (v / g.length()) * u, u))
+    };
+    let (a, b) = (plane(pa, sa)?, plane(pb, sb)?);
+    let ends = turn(na.to_array(), nb.to_array());
+    if turn(a.1.to_array(), b.1.to_array()) < 0.8 * ends {
+        return None;
+    }
+    meet(q, a, b).filter(|c| c.distance(q) <= reach)
+}
+
+/// Whether splitting the edge `a–b` at `q` folds nothing: the edge has
+/// two triangles (on a brick's seam, one: such an edge is not split onto
+/// a crease, as the next brick cannot see the other), each of the four
+/// new ones faces along the normals at its two corners other than `q`
+/// (whose normal is one side's), and the fans of `a`, `b` and the two
+/// opposite corners still face along their normals (the sum of their
+/// triangles' area normals: a split next to a crumpled patch of a thin
+/// wall could turn one over).
+fn unfolded(mesh: &Mesh, star: &Star, (a, b): (u32, u32), q: DVec3) -> bool {
+    let (p, n) = (&mesh.positions, &mesh.normals);
+    let area = |t: [DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]);
+    let fan = |u: u32| -> DVec3 {
+        star.of(u as usize)
+            .iter()
+            .map(|&ti| area(mesh.triangles[ti as usize].map(|v| p[v as usize])))
+            .sum()
+    };
+    let mut fans: SmallVec<[(u32, DVec3); 4]> = SmallVec::new();
+    let mut change = |u: u32, by: DVec3| match fans.iter_mut().find(|(v, _)| *v == u) {
+        Some((_, s)) => *s += by,
+        None => fans.push((u, fan(u) + by)),
+    };
+    let mut sides = 0;
+    for &ti in star.of(a as usize) {
+        let t = mesh.triangles[ti as usize];
+        let Some(k) =
+            (0..3).find(|&k| (t[k], t[(k + 1) % 3]) == (a, b) || (t[k], t[(k + 1) % 3]) == (b, a))
+        else {
+            continue;
+        };
+        sides += 1;
+        let (x, y, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+        let [px, py, pc] = [x, y, c].map(|v| p[v as usize]);
+        let (old, first, second) = (area([px, py, pc]), area([px, q, pc]), area([q, py, pc]));
+        let faces = |u: u32, nt: DVec3| nt.dot(n[u as usize]) > 0.0 && nt.dot(n[c as usize]) > 0.0;
+        if !faces(x, first) || !faces(y, second) {
+            return false;
+        }
+        change(x, first - old);
+        change(y, second - old);
+        change(c, first + second - old);
+    }
+    sides == 2 && fans.iter().all(|&(u, s)| s.dot(n[u as usize]) > 0.0)
+}
+
 /// The edges (smaller index first, sorted) with exactly two triangles and
 /// no end on a crease, among those with an end numbered `fresh` or
 /// more. A boundary edge lies on the domain's face, where a projected
@@ -257,12 +528,12 @@ pub(crate) fn beyond(v: f64, g: DVec3, tol: f64) -> bool {
 /// triangle off ∂Ω (a seam: see the module doc).
 fn inner_edges(
     mesh: &Mesh,
+    star: &Star,
     feature: &[bool],
     part: Option<&Origins>,
     fresh: u32,
 ) -> Vec<(u32, u32)> {
     let crease = |v: u32| feature.get(v as usize).copied().unwrap_or(false);
-    let star = Star::new(mesh);
     let tris = &mesh.triangles;
     (0..mesh.positions.len() as u32)
         .into_par_iter()
@@ -302,20 +573,21 @@ fn inner_edges(
 }
 
 /// Splits `mesh`'s edges at the given vertices (see the module doc).
-fn apply(mesh: &mut Mesh, feature: &mut Vec<bool>, splits: &[((u32, u32), DVec3, DVec3)]) {
+fn apply(mesh: &mut Mesh, feature: &mut Vec<bool>, splits: &[Split]) {
     feature.resize(mesh.positions.len(), false);
     if splits.is_empty() {
         return;
     }
     let mut at: HashMap<(u32, u32), u32> = HashMap::default();
     at.reserve(splits.len());
-    for &((a, b), q, g) in splits {
+    for s in splits {
+        let (a, b) = s.edge;
         at.insert((a, b), mesh.positions.len() as u32);
         let ambiguous = mesh.ambiguous[a as usize] || mesh.ambiguous[b as usize];
-        mesh.positions.push(q);
-        mesh.normals.push(g.normalize());
+        mesh.positions.push(s.at);
+        mesh.normals.push(s.grad.normalize());
         mesh.ambiguous.push(ambiguous);
-        feature.push(false);
+        feature.push(s.crease);
     }
     let mid = |a: u32, b: u32| at.get(&(a.min(b), a.max(b))).copied();
     // Each triangle is replaced by its first piece in place; the others

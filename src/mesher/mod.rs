@@ -298,7 +298,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
             &field,
             t,
             tau,
-            smoothed,
+            (smoothed, opts.creases),
             cancel,
         )?;
     }
@@ -345,7 +345,8 @@ fn mesh_refining<E: Evaluator + ?Sized>(
 /// triangles of an equilateral one) whose flips and moves make no edge
 /// the splits would split ([`smooth::smooth_within`]); one more round
 /// (for a brick, numbered after the others); and the coincident vertices
-/// welded.
+/// welded. With `creases` (the crease pass ran), an edge across a crease
+/// is split onto it ([`chord`]).
 ///
 /// Splitting after the collapses rather than before them splits only what
 /// the coarsened mesh needs: on decocube at level 8, 117k triangles were
@@ -359,7 +360,7 @@ fn split_after_smoothing<E: Evaluator + ?Sized>(
     f: &E,
     t: f64,
     tau: Chord,
-    smoothed: bool,
+    (smoothed, creases): (bool, bool),
     cancel: &Cancel,
 ) -> Result<(), Cancelled> {
     let seam = |mesh: &Mesh, origins: Option<&Origins>| match origins {
@@ -367,7 +368,16 @@ fn split_after_smoothing<E: Evaluator + ?Sized>(
         None => Vec::new(),
     };
     let old = mesh.positions.len() as u32;
-    chord::split_edges_in(mesh, feature, origins.as_deref_mut(), f, t, tau, cancel)?;
+    chord::split_edges_in(
+        mesh,
+        feature,
+        origins.as_deref_mut(),
+        f,
+        t,
+        tau,
+        creases,
+        cancel,
+    )?;
     if smoothed {
         // Only the corners of the split triangles move (and a brick's seam
         // stays).
@@ -390,7 +400,7 @@ fn split_after_smoothing<E: Evaluator + ?Sized>(
     }
     // The round after smoothing: numbered after the others.
     let round = origins.as_deref_mut().map(|o| (o, chord::ROUNDS as u32));
-    chord::split_round_in(mesh, feature, round, f, t, tau);
+    chord::split_round_in(mesh, feature, round, f, t, tau, creases);
     let on_seam = seam(mesh, origins.as_deref());
     weld::weld_coincident_in(mesh, &mut Vec::new(), &on_seam, origins, Some(feature));
     Ok(())

@@ -303,3 +303,57 @@ fn chord_splits_leave_the_domain_boundary_closed() {
         assert!(t.manifold() && t.open_edges == 0, "L{level}: {t:?}");
     }
 }
+
+/// An edge that cuts a crease off (a chamfer the crease pass left, here
+/// the diagonal of a strip across the edge of a wedge) is split onto the
+/// crease: the new vertex lies on both faces and is a crease vertex, so
+/// the halves lie on the faces and are not split again. Without creases
+/// (`--no-creases`) the chamfer stays: a split from the midpoint would
+/// land on one face, its normal square to the other end's.
+#[test]
+fn a_chamfer_is_split_onto_its_crease() {
+    let wedge = surface("domain [-1, 1]^3; surface max(x - 0.013, y - 0.021) = 0;");
+    let (a, b, up) = (
+        DVec3::new(0.013, -0.029, 0.0),
+        DVec3::new(-0.037, 0.021, 0.0),
+        DVec3::new(0.0, 0.0, 0.1),
+    );
+    let strip = isoc::Mesh {
+        positions: vec![a, b, b + up, a + up],
+        normals: vec![DVec3::X, DVec3::Y, DVec3::Y, DVec3::X],
+        ambiguous: vec![false; 4],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+    };
+    let tau = isoc::octree::Chord::uniform(1e-4);
+    let split = |creases: bool| {
+        let (mut mesh, mut feature) = (strip.clone(), Vec::new());
+        let n = isoc::mesher::chord::split_edges_in(
+            &mut mesh,
+            &mut feature,
+            None,
+            &wedge,
+            0.0,
+            tau,
+            creases,
+            &isoc::Cancel::new(),
+        )
+        .expect("never cancelled");
+        (n, mesh, feature)
+    };
+    let (n, mesh, feature) = split(true);
+    assert_eq!(n, 1);
+    let q = mesh.positions[4];
+    assert!(
+        (q.x - 0.013).abs() < 1e-9 && (q.y - 0.021).abs() < 1e-9,
+        "{q}"
+    );
+    assert!(q.z > 0.0 && q.z < 0.1, "{q}");
+    assert_eq!(feature, [false, false, false, false, true]);
+    assert_eq!(mesh.triangles.len(), 4);
+    for t in &mesh.triangles {
+        let n = mesh.face_normal(*t);
+        assert!(n.dot(DVec3::new(1.0, 1.0, 0.0)) > 0.0, "{t:?} turned over");
+    }
+    let (n, mesh, _) = split(false);
+    assert_eq!((n, mesh.positions.len()), (0, 4));
+}
