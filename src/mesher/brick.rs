@@ -231,7 +231,6 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
         cancel,
     )?;
     if let Some(tau) = tau {
-        let smoothed = opts.smooth > 0;
         let origins = Some(&mut origins);
         super::split_after_smoothing(
             &mut mesh,
@@ -240,7 +239,7 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
             &field,
             t,
             tau,
-            (smoothed, opts.creases),
+            opts,
             cancel,
         )?;
     }

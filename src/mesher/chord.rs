@@ -26,7 +26,9 @@
 //! meet and again onto `f = 0`; the split is made when no new triangle
 //! turns against its corners' normals and the fans of the four vertices
 //! around it still face along their normals. The new vertex is a crease
-//! vertex with one side's normal, so its edges are not split again. Every split vertex is shared
+//! vertex with one side's normal, so its edges are not split again.
+//!
+//! Every split vertex is shared
 //! by the edge's triangles, so the mesh stays conforming: topology,
 //! closedness and orientation are kept, a boundary edge stays on the
 //! boundary. The decision and the new vertex depend on the edge alone,
@@ -36,10 +38,9 @@
 //! of a crease point, whose normal is one side's and at a corner of three
 //! faces lopsided already, and can turn the fan past 120° from it
 //! (colonnade.vm at level 6, with the splits after smoothing). So are
-//! boundary edges (on the domain's faces,
-//! where a projected midpoint would not be) and any edge without exactly
-//! two triangles; new vertices are crease vertices only when split onto a
-//! crease, and are ambiguous
+//! boundary edges (on the domain's faces, where a projected midpoint
+//! would not be) and any edge without exactly two triangles; new vertices
+//! are crease vertices only when split onto a crease, and are ambiguous
 //! when an end of their edge is.
 //!
 //! A part of a mesh (a brick of a bricked run, with its vertices'
@@ -193,6 +194,10 @@ const EDGES_PER_TASK: usize = 4096;
 /// An edge (smaller index first) and a point for its new vertex.
 type OnEdge = ((u32, u32), DVec3);
 
+/// An edge to split (smaller index first), its midpoint, and how far from
+/// its start a projection may go.
+type Far = ((u32, u32), DVec3, f64);
+
 /// A split: the edge (smaller index first), its new vertex's position and
 /// gradient, and whether the new vertex is a crease vertex (see
 /// [`across`]).
@@ -226,7 +231,7 @@ fn splits<E: Evaluator + ?Sized>(
                 vec![None; far.len()]
             };
             // The others from their midpoints, in the order of the edges.
-            let rest: Vec<((u32, u32), DVec3, f64)> = far
+            let rest: Vec<Far> = far
                 .iter()
                 .zip(&onto)
                 .filter(|(_, c)| c.is_none())
@@ -257,36 +262,30 @@ fn far_edges<E: Evaluator + ?Sized>(
     f: &E,
     t: f64,
     tau: Chord,
-) -> Vec<((u32, u32), DVec3, f64)> {
+) -> Vec<Far> {
     let (p, n) = (&mesh.positions, &mesh.normals);
-    let mids: Vec<DVec3> = chunk
+    let end = |v: u32| (p[v as usize], n[v as usize]);
+    let mids: Vec<(DVec3, f64)> = chunk
         .iter()
-        .map(|&(a, b)| (p[a as usize] + p[b as usize]) * 0.5)
+        .map(|&(a, b)| midpoint_tolerance(tau, end(a), end(b)))
         .collect();
-    let measured = grads_at(f, t, &mids);
+    let at: Vec<DVec3> = mids.iter().map(|&(m, _)| m).collect();
     chunk
         .iter()
         .zip(mids)
-        .zip(measured)
+        .zip(grads_at(f, t, &at))
         // NaN (no gradient) is not a measurement: no split.
-        .filter(|&((&(a, b), _), (v, g))| {
-            let (a, b) = (a as usize, b as usize);
-            let (_, tol) = midpoint_tolerance(tau, (p[a], n[a]), (p[b], n[b]));
-            beyond(v, g, tol)
+        .filter(|&((_, (_, tol)), (v, g))| beyond(v, g, tol))
+        .map(|((&(a, b), (mid, _)), _)| {
+            ((a, b), mid, REACH * p[a as usize].distance(p[b as usize]))
         })
-        .map(|((&(a, b), mid), _)| ((a, b), mid, REACH * p[a as usize].distance(p[b as usize])))
         .collect()
 }
 
 /// The new vertices of `far` edges split from their midpoints: projected
 /// onto `f = 0`, with the gradient there on the sheet of the edge's ends
 /// (not across a thin wall).
-fn from_midpoints<E: Evaluator + ?Sized>(
-    mesh: &Mesh,
-    far: &[((u32, u32), DVec3, f64)],
-    f: &E,
-    t: f64,
-) -> Vec<Split> {
+fn from_midpoints<E: Evaluator + ?Sized>(mesh: &Mesh, far: &[Far], f: &E, t: f64) -> Vec<Split> {
     let n = &mesh.normals;
     let starts: Vec<(DVec3, f64)> = far.iter().map(|&(_, m, r)| (m, r)).collect();
     let projected: Vec<OnEdge> = far
@@ -339,12 +338,12 @@ fn oriented_grads<E: Evaluator + ?Sized>(
 fn onto_creases<E: Evaluator + ?Sized>(
     mesh: &Mesh,
     star: &Star,
-    far: &[((u32, u32), DVec3, f64)],
+    far: &[Far],
     f: &E,
     t: f64,
 ) -> Vec<Option<Split>> {
     let (p, n) = (&mesh.positions, &mesh.normals);
-    let onto = |((ea, eb), mid, reach): ((u32, u32), DVec3, f64)| {
+    let onto = |((ea, eb), mid, reach): Far| {
         let (a, b) = (
             (p[ea as usize], n[ea as usize]),
             (p[eb as usize], n[eb as usize]),

@@ -290,7 +290,6 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     let moves =
         smooth::smooth_keeping(&mut mesh, &field, t, opts.smooth, &creases.feature, cancel)?;
     if let Some(tau) = tau {
-        let smoothed = opts.smooth > 0;
         split_after_smoothing(
             &mut mesh,
             &mut creases.feature,
@@ -298,7 +297,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
             &field,
             t,
             tau,
-            (smoothed, opts.creases),
+            opts,
             cancel,
         )?;
     }
@@ -338,15 +337,15 @@ fn mesh_refining<E: Evaluator + ?Sized>(
 }
 
 /// The chord splits of a coarsened and smoothed mesh (of the mesh as
-/// extracted with `smoothed` false), as the whole run and each brick
+/// extracted with `opts.smooth` 0), as the whole run and each brick
 /// ([`brick`], with its vertices' `origins`) make them: the rounds of
-/// [`chord::split_edges_in`]; with `smoothed`, two smoothing passes over the
+/// [`chord::split_edges_in`]; with smoothing on, two smoothing passes over the
 /// corners of the split triangles (a single split makes two 30-60-90
 /// triangles of an equilateral one) whose flips and moves make no edge
 /// the splits would split ([`smooth::smooth_within`]); one more round
 /// (for a brick, numbered after the others); and the coincident vertices
-/// welded. With `creases` (the crease pass ran), an edge across a crease
-/// is split onto it ([`chord`]).
+/// welded. With `opts.creases` (the crease pass ran), an edge across a
+/// crease is split onto it ([`chord`]).
 ///
 /// Splitting after the collapses rather than before them splits only what
 /// the coarsened mesh needs: on decocube at level 8, 117k triangles were
@@ -360,9 +359,10 @@ fn split_after_smoothing<E: Evaluator + ?Sized>(
     f: &E,
     t: f64,
     tau: Chord,
-    (smoothed, creases): (bool, bool),
+    opts: &MeshOptions,
     cancel: &Cancel,
 ) -> Result<(), Cancelled> {
+    let creases = opts.creases;
     let seam = |mesh: &Mesh, origins: Option<&Origins>| match origins {
         Some(o) => brick::seam(mesh, o),
         None => Vec::new(),
@@ -378,7 +378,7 @@ fn split_after_smoothing<E: Evaluator + ?Sized>(
         creases,
         cancel,
     )?;
-    if smoothed {
+    if opts.smooth > 0 {
         // Only the corners of the split triangles move (and a brick's seam
         // stays).
         let mut still = seam(mesh, origins.as_deref());
