@@ -64,6 +64,11 @@ pub struct Verdict {
     /// The enclosure of `∇F` over the whole cell that the verdict was
     /// judged from (the whole line where the value alone decided).
     pub grad: [Interval; 3],
+    /// `F` is `±|A|` on the cell, `A` affine: two solids share a face
+    /// there, along which `F` touches 0 without changing sign, and no
+    /// finer cell decides more (`super::crease`): an ambiguous leaf at
+    /// once.
+    pub sheet: bool,
 }
 
 impl Verdict {
@@ -123,6 +128,7 @@ pub(crate) fn judge(
             defined: value_defined,
             smooth: g.defined,
             grad: g.grad,
+            sheet: false,
         };
     }
     let topology_ok = match test {
@@ -137,6 +143,7 @@ pub(crate) fn judge(
         defined: true,
         smooth: g.defined,
         grad: g.grad,
+        sheet: false,
     }
 }
 

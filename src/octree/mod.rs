@@ -512,6 +512,7 @@ fn examine<E: Evaluator + ?Sized>(
                     defined: true,
                     smooth: true,
                     grad: [Interval::ENTIRE; 3],
+                    sheet: false,
                 };
             }
             let g = grads.next().expect("one gradient per open cell");
@@ -952,6 +953,8 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             })
         } else if v.topology_ok && v.geometry_ok {
             Some(Leaf::Surface)
+        } else if v.sheet {
+            Some(Leaf::Ambiguous)
         } else {
             None
         }
@@ -1024,6 +1027,20 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
                         None => e,
                     };
                     crease::crease_look(along, &cells[start..end], &mut v, opts, last);
+                    // Above the last level, cells whose own program is
+                    // planar pieces (faithful `--level` only).
+                    if let (Some(r), Some(_), false) = (&tape.program, self.tau, last) {
+                        let domain = (tree.lo, tree.lo + tree.size);
+                        let next_is_last = level + 1 == self.max_level;
+                        crease::planar_look(
+                            &r.0,
+                            &cells[start..end],
+                            &mut v,
+                            opts,
+                            domain,
+                            next_is_last,
+                        );
+                    }
                 }
                 v
             });
