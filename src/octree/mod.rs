@@ -1029,11 +1029,14 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
                     crease::crease_look(along, &cells[start..end], &mut v, opts, last);
                     // Above the last level, cells whose own program is
                     // planar pieces (faithful `--level` only).
-                    if let (Some(r), Some(_), false) = (&tape.program, self.tau, last) {
+                    // With or without pruning alike: the full program
+                    // when the tape has no pruned one.
+                    let program = tape.program.as_ref().map(|r| &r.0).or_else(|| e.program());
+                    if let (Some(program), Some(_), false) = (program, self.tau, last) {
                         let domain = (tree.lo, tree.lo + tree.size);
                         let next_is_last = level + 1 == self.max_level;
                         crease::planar_look(
-                            &r.0,
+                            program,
                             &cells[start..end],
                             &mut v,
                             opts,
