@@ -125,7 +125,8 @@ impl DynMesh {
         i
     }
 
-    fn kill_tri(&mut self, i: u32) {
+    /// Removes triangle `i` from the mesh and its vertices' stars.
+    pub fn kill_tri(&mut self, i: u32) {
         self.tri_alive[i as usize] = false;
         for v in self.tris[i as usize] {
             self.star[v as usize].retain(|&x| x != i);

@@ -45,7 +45,12 @@
 //!   ∇f there on the triangle's side (not across a thin wall).
 //!
 //! So a collapse makes no edge the chord splits ([`super::chord`]) would
-//! split again. Collapses are made in sweeps, each checked and measured on
+//! split again. Before the first round's collapses, the flat regions (the
+//! planar faces of a CSG model) are retriangulated at once from their
+//! borders ([`super::planar`]), crease points and the pinned vertices
+//! staying: on colonnade.vm at depth 8 that takes 269k triangles to 77k
+//! in a tenth of a second, where collapsing them one by one took half a
+//! second. Collapses are made in sweeps, each checked and measured on
 //! the mesh as it is when it is made: a sweep visits the vertices whose
 //! neighbourhood changed since their last visit, shortest edge first, and
 //! tries each into its nearest neighbours (`TARGETS`: two) in order of
@@ -60,12 +65,10 @@
 //! Quality is only kept from falling below a floor; smoothing
 //! ([`super::smooth`]) improves it after. Corners stay, and so does a
 //! crease point whose crease bends past the tolerance or meets a sharp
-//! edge the crease pass did not sharpen. On the flat faces of a CSG model
-//! (colonnade.vm) the aspect floor refuses most fans next to a crease, so
-//! the faces keep strips about a cell wide after one round; where most
-//! vertices are held only by that floor, a smoothing pass (crease points
-//! and a brick's seam stay) reshapes the fans and another round visits
-//! those vertices again ([`ROUNDS`], [`RETRY_SHARE`]). The pass is sequential
+//! edge the crease pass did not sharpen. Where most vertices left are
+//! held only by the aspect floor, a smoothing pass (crease points and a
+//! brick's seam stay) reshapes the fans and another round visits those
+//! vertices again ([`ROUNDS`], [`RETRY_SHARE`]). The pass is sequential
 //! (single-threaded): each collapse is measured on the mesh the previous
 //! ones left. It runs in the smoothing stage, so `--smooth 0` keeps the
 //! mesh as extracted and split (and a bricked run equal to the whole one,
@@ -77,6 +80,7 @@ use smallvec::SmallVec;
 
 use super::adapt::{ALIGN, point_triangle_distance};
 use super::crease::SPLIT_DEG;
+use super::planar::{self, FLAT};
 use super::smooth;
 use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
@@ -100,8 +104,9 @@ pub const ROUNDS: usize = 3;
 /// Another round follows when at least this share of the vertices left
 /// had a collapse that only the aspect floor refused: a smoothing pass
 /// reshapes their fans. At depth 8 the share is 4–32 % on smooth
-/// surfaces (no extra round, no extra time) and 93 % on colonnade.vm,
-/// whose flat faces the first round leaves as strips of slivers-to-be.
+/// surfaces (no extra round, no extra time) and 60 % on colonnade.vm
+/// after its first round (93 % before its faces were retriangulated,
+/// [`super::planar`]): the fans next to its creases.
 const RETRY_SHARE: f64 = 0.5;
 
 /// A sweep that removes fewer than this share of the live vertices is the
@@ -117,14 +122,6 @@ const STALL: f64 = 0.05;
 /// genus2 and bretzel5 at level 7 kept above issue 11's 0.75).
 const MIN_ASPECT: f64 = 0.5;
 
-/// The aspect floor of a flat star's fan ([`Around::flat`]) in the first
-/// round: there a sliver costs no chord error, only shape, which the
-/// smoothing pass before the next round (whose floor is [`MIN_ASPECT`])
-/// evens out on a plane at no cost. On colonnade.vm at depth 8 the first
-/// round then leaves 25.5k triangles instead of 27.1k in 0.66 s instead
-/// of 0.84 (`docs/faithful.md`), `aspect_good` 0.56 (Fidget's 0.52).
-const FLAT_FIRST_ASPECT: f64 = 0.35;
-
 /// How much longer than the isotropic size a new edge may be. A chord
 /// along a tube does not leave it, so the chord test alone would stretch
 /// triangles along every tube; a new edge is also held to the size the
@@ -134,11 +131,6 @@ const FLAT_FIRST_ASPECT: f64 = 0.35;
 /// 8; with 2 genus2's `aspect_good` falls below issue 11's 0.75
 /// (`docs/faithful.md`).
 const ANISOTROPY: f64 = 1.75;
-
-/// How far from equal two unit normals, and how far off a plane (per
-/// length) a point, may be for a star to count as flat
-/// ([`Around::flat`]): rounding, not curvature.
-const FLAT: f64 = 1e-12;
 
 /// The nearest neighbours of a vertex it may be collapsed into.
 const TARGETS: usize = 2;
@@ -219,9 +211,10 @@ fn coarsen_round<E: Evaluator + ?Sized>(
     cancel: &Cancel,
 ) -> Result<(Vec<bool>, Vec<bool>), Cancelled> {
     let mut c = Coarsener::new(mesh, marks, visit, tau);
-    // The first round visits every vertex (`visit` is `None`).
+    // The first round visits every vertex (`visit` is `None`), after the
+    // flat regions are retriangulated.
     if visit.is_none() {
-        c.flat_floor = FLAT_FIRST_ASPECT;
+        c.retriangulate_planes(f, t);
     }
     for _ in 0..SWEEPS {
         cancel.check()?;
@@ -262,8 +255,6 @@ struct Coarsener {
     /// floor refused ([`Verdict::Sliver`]).
     sliver: Vec<bool>,
     tau: Chord,
-    /// The aspect floor of a flat star's fan ([`FLAT_FIRST_ASPECT`]).
-    flat_floor: f64,
     /// Scratch: the points a collapse is measured at, their tolerances
     /// and the directions ∇f must agree with; the evaluations.
     samples: Vec<(DVec3, f64, DVec3)>,
@@ -294,11 +285,32 @@ impl Coarsener {
             dirty,
             sliver: vec![false; n],
             tau,
-            flat_floor: MIN_ASPECT,
             samples: Vec::new(),
             pts: Vec::new(),
             values: Vec::new(),
             ring: Vec::new(),
+        }
+    }
+
+    /// Retriangulates the flat regions ([`planar`]) the collapses may
+    /// touch: crease points, ambiguous and fixed vertices stay. The
+    /// refinement leaves alone triangles of less than a cell's square.
+    fn retriangulate_planes<E: Evaluator + ?Sized>(&mut self, f: &E, t: f64) {
+        let held: Vec<bool> = (0..self.m.pos.len())
+            .map(|v| self.fixed[v] || self.crease[v])
+            .collect();
+        let side = if self.tau.cell > 0.0 {
+            self.tau.cell
+        } else {
+            self.tau.base
+        };
+        let changed = planar::retriangulate(&mut self.m, &held, &mut self.ambiguous, (f, t), side);
+        for v in changed {
+            let v = v as usize;
+            if !held[v] {
+                self.fixed[v] = !removable(&self.m, v as u32);
+                self.dirty[v] = !self.fixed[v];
+            }
         }
     }
 
@@ -378,12 +390,7 @@ impl Coarsener {
         if !around.flat && !around.isotropic(m, k, self.tau) {
             return Verdict::Refused;
         }
-        let floor = if around.flat {
-            self.flat_floor
-        } else {
-            MIN_ASPECT
-        };
-        let fan = around.fan(m, k, &self.crease, floor);
+        let fan = around.fan(m, k, &self.crease);
         if fan == Verdict::Refused || !(around.flat || near()) || !around.link_holds(m, k) {
             return Verdict::Refused;
         }
@@ -609,7 +616,7 @@ impl Around {
     /// Whether the fan that collapsing into `k` makes is acceptable: no
     /// triangle turns over, leaves a corner's normal by more than 60°, or
     /// is a sliver (see the module doc).
-    fn fan(&self, m: &DynMesh, k: u32, crease: &[bool], floor: f64) -> Verdict {
+    fn fan(&self, m: &DynMesh, k: u32, crease: &[bool]) -> Verdict {
         let (r, pk) = (self.r, m.pos[k as usize]);
         let mut new_worst = 1.0f64;
         for &i in &m.star[r as usize] {
@@ -637,7 +644,7 @@ impl Around {
             }
             new_worst = new_worst.min(aspect(nq[0], nq[1], nq[2]));
         }
-        if new_worst >= floor || new_worst >= *self.worst.get_or_init(|| star_worst(m, r)) {
+        if new_worst >= MIN_ASPECT || new_worst >= *self.worst.get_or_init(|| star_worst(m, r)) {
             Verdict::Passed
         } else {
             Verdict::Sliver

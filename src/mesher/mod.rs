@@ -1,8 +1,9 @@
 //! The robust adaptive mesher end to end (Paiva et al. §4): octree →
 //! dual grid → dual marching cubes (MC33) with vertices bisected onto the
 //! surface → coincident vertices welded ([`weld`]) → sharp creases
-//! ([`crease`]) → with a chord tolerance and smoothing on, measured edge
-//! collapses ([`coarsen`]) → smoothing (edge flips and tangential
+//! ([`crease`]) → with a chord tolerance and smoothing on, flat regions
+//! retriangulated ([`planar`]) and measured edge collapses ([`coarsen`])
+//! → smoothing (edge flips and tangential
 //! relaxation) → chord splits ([`chord`]), two smoothing passes around
 //! them held to the tolerance and a last chord round, and the weld again
 //! → report.
@@ -23,6 +24,7 @@ pub mod chord;
 pub mod coarsen;
 pub mod crease;
 pub mod flip;
+pub mod planar;
 pub mod report;
 pub mod smooth;
 pub mod stitch;

@@ -1127,8 +1127,9 @@ const CAP_PIXELS: usize = 160;
 /// side, of a point [`winding_mismatches`] judges on an open mesh.
 const CAP_MARGIN: f64 = 0.03;
 
-/// Vertices spread over every component of `mesh`: at most
-/// `WINDING_POINTS / 2` in all, at least two a component.
+/// Points of the mesh (triangles' corners and centroids) spread over
+/// every component of `mesh`: at most `WINDING_POINTS / 2` in all, at
+/// least two a component.
 fn winding_seeds(mesh: &Mesh) -> Vec<DVec3> {
     let comp = topology::triangle_components(mesh);
     let ncomp = comp.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
@@ -1137,12 +1138,19 @@ fn winding_seeds(mesh: &Mesh) -> Vec<DVec3> {
         of[c as usize].push(t);
     }
     let per = (WINDING_POINTS / 2 / ncomp.max(1)).max(2);
+    // Four points a triangle (its corners and centroid), so that a mesh
+    // of few large triangles (a plane) is sampled as densely.
+    let point = |t: usize, k: usize| {
+        let q = mesh.triangles[t].map(|v| mesh.positions[v as usize]);
+        [q[0], (q[0] + q[1] + q[2]) / 3.0, q[1], q[2]][k]
+    };
     of.iter()
         .flat_map(|tris| {
-            let stride = tris.len().div_ceil(per).max(1);
-            tris.iter()
+            let n = 4 * tris.len();
+            let stride = n.div_ceil(per).max(1);
+            (0..n)
                 .step_by(stride)
-                .map(|&t| mesh.positions[mesh.triangles[t][0] as usize])
+                .map(move |i| point(tris[i / 4], i % 4))
         })
         .collect()
 }
