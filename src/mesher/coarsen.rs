@@ -304,7 +304,7 @@ impl Coarsener {
         } else {
             self.tau.base
         };
-        let changed = planar::retriangulate(&mut self.m, &held, &mut self.ambiguous, (f, t), side);
+        let changed = planar::retriangulate(&mut self.m, &held, &mut self.ambiguous, f, t, side);
         for v in changed {
             let v = v as usize;
             if !held[v] {

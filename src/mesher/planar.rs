@@ -93,7 +93,8 @@ pub fn retriangulate<E: Evaluator + ?Sized>(
     m: &mut DynMesh,
     held: &[bool],
     ambiguous: &mut [bool],
-    (f, t): (&E, f64),
+    f: &E,
+    t: f64,
     side: f64,
 ) -> Vec<u32> {
     let n = m.pos.len();
@@ -625,13 +626,7 @@ mod tests {
         let mut m = DynMesh::indexed(&mesh);
         let mut ambiguous = vec![false; mesh.positions.len()];
         let before = m.live_tri_count();
-        let changed = retriangulate(
-            &mut m,
-            &held,
-            &mut ambiguous,
-            (&solid(0.0), 0.0),
-            1.0 / 16.0,
-        );
+        let changed = retriangulate(&mut m, &held, &mut ambiguous, &solid(0.0), 0.0, 1.0 / 16.0);
         assert!(!changed.is_empty());
         assert!(
             m.live_tri_count() * 3 < before,
@@ -670,7 +665,7 @@ mod tests {
         }
         let mut m = DynMesh::indexed(&mesh);
         let mut ambiguous = vec![false; mesh.positions.len()];
-        retriangulate(&mut m, &held, &mut ambiguous, (&solid(0.0), 0.0), 1.0 / 8.0);
+        retriangulate(&mut m, &held, &mut ambiguous, &solid(0.0), 0.0, 1.0 / 8.0);
         let bulged = |p: DVec3| p.z > 1.0;
         let left = mesh.positions.iter().filter(|&&p| bulged(p)).count();
         let kept = (0..m.pos.len())
@@ -699,7 +694,8 @@ mod tests {
                 &mut m,
                 &held,
                 &mut ambiguous,
-                (&solid(radius), 0.0),
+                &solid(radius),
+                0.0,
                 1.0 / 16.0,
             );
             assert_eq!(top(&m) == before, stays, "radius {radius}");
@@ -718,7 +714,7 @@ mod tests {
             .find(|&v| !held[v] && mesh.positions[v].z == 1.0)
             .unwrap();
         ambiguous[v] = true;
-        retriangulate(&mut m, &held, &mut ambiguous, (&solid(0.0), 0.0), 1.0 / 8.0);
+        retriangulate(&mut m, &held, &mut ambiguous, &solid(0.0), 0.0, 1.0 / 8.0);
         let flagged: Vec<usize> = (0..m.pos.len())
             .filter(|&w| m.vert_alive[w] && ambiguous[w])
             .collect();
