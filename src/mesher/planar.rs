@@ -7,10 +7,11 @@
 //! # Contract
 //!
 //! A vertex is **inner** when the caller lets it go (not a crease point,
-//! pinned, ambiguous or otherwise held, see [`retriangulate`]), its star
-//! is a closed disk, every vertex of its star lies on its tangent plane
-//! (within [`FLAT`] per length: rounding, not curvature) and every
-//! triangle of its star faces along its normal. A **region** is a
+//! pinned or otherwise held, see [`retriangulate`]; an ambiguous vertex
+//! may go and hands its flag on), its star is a closed disk, every vertex
+//! of its star lies on its tangent plane (within [`FLAT`] per length:
+//! rounding, not curvature) and every triangle of its star faces along
+//! its normal. A **region** is a
 //! connected set of inner vertices (joined by edges) with the triangles
 //! around them: a planar polygon, holes allowed, whose border is made of
 //! the other vertices of those triangles. A region is retriangulated only
