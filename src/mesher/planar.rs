@@ -634,24 +634,77 @@ mod tests {
             "{} of {before} triangles left",
             m.live_tri_count()
         );
-        // The same closed surface: volume, area, topology, and the edge
-        // vertices all kept.
-        assert!((volume(&m) - 1.0).abs() < 1e-12, "volume {}", volume(&m));
-        assert!((area(&m) - 6.0).abs() < 1e-12, "area {}", area(&m));
+        assert_same_cube(&m, &mesh, &held);
+        for (_, t) in m.live_tris() {
+            let q = t.map(|v| m.pos[v as usize]);
+            assert!(aspect(q[0], q[1], q[2]) > 0.05, "sliver {q:?}");
+        }
+    }
+
+    /// Whether `p` lies in the triangle `q` (in its plane, up to rounding).
+    fn inside(p: DVec3, q: [DVec3; 3]) -> bool {
+        let n = (q[1] - q[0]).cross(q[2] - q[0]);
+        let off = n.dot(p - q[0]).abs() <= 1e-12 * n.length();
+        off && (0..3).all(|k| {
+            let (a, b) = (q[k], q[(k + 1) % 3]);
+            (b - a).cross(p - a).dot(n) >= -1e-12 * n.length_squared()
+        })
+    }
+
+    /// The checks every retriangulated cube `m` (of `mesh`) passes: the
+    /// same closed surface (volume, area, topology), the `held` vertices
+    /// where they were, every triangle on one face.
+    fn assert_same_cube(m: &DynMesh, mesh: &Mesh, held: &[bool]) {
+        assert!((volume(m) - 1.0).abs() < 1e-12, "volume {}", volume(m));
+        assert!((area(m) - 6.0).abs() < 1e-12, "area {}", area(m));
         let topo = analyze(&m.to_mesh());
         assert!(topo.watertight && topo.manifold(), "{topo:?}");
         assert_eq!((topo.components, topo.euler), (1, 2));
         for (v, &h) in held.iter().enumerate() {
             assert!(!h || (m.vert_alive[v] && m.pos[v] == mesh.positions[v]));
         }
-        // Every vertex on a face of the cube, no triangle across a face.
         for (_, t) in m.live_tris() {
             let q = t.map(|v| m.pos[v as usize]);
             let shared = (0..3).any(|k| {
                 q.iter().all(|p| p[k].abs() < 1e-12) || q.iter().all(|p| (p[k] - 1.0).abs() < 1e-12)
             });
             assert!(shared, "{q:?} is not on one face");
-            assert!(aspect(q[0], q[1], q[2]) > 0.05, "sliver {q:?}");
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+        /// Whatever is held and whatever is ambiguous, a grid cube keeps
+        /// its surface; an ambiguous vertex that stays keeps its flag, one
+        /// that goes leaves it on a corner of the triangle it lies in, and
+        /// no flag is made from nothing.
+        #[test]
+        fn any_held_set_keeps_the_cube(
+            n in 2usize..10,
+            flags in proptest::collection::vec(0u8..8, 600),
+        ) {
+            let (mesh, edges) = cube(n);
+            let held: Vec<bool> = (0..mesh.positions.len())
+                .map(|v| edges[v] || flags[v % flags.len()] == 0)
+                .collect();
+            let mut ambiguous: Vec<bool> = (0..mesh.positions.len())
+                .map(|v| flags[(v * 7 + 3) % flags.len()] == 1)
+                .collect();
+            let before = ambiguous.clone();
+            let mut m = DynMesh::indexed(&mesh);
+            retriangulate(&mut m, &held, &mut ambiguous, &solid(0.0), 0.0, 1.0 / n as f64);
+            assert_same_cube(&m, &mesh, &held);
+            for v in (0..before.len()).filter(|&v| before[v]) {
+                let p = mesh.positions[v];
+                let kept = m.vert_alive[v] && m.pos[v] == p;
+                let handed = m.live_tris().any(|(_, t)| {
+                    t.iter().any(|&w| ambiguous[w as usize]) && inside(p, t.map(|w| m.pos[w as usize]))
+                });
+                proptest::prop_assert!(if kept { ambiguous[v] } else { handed }, "{p:?}");
+            }
+            let left = (0..m.pos.len()).any(|v| m.vert_alive[v] && ambiguous[v]);
+            proptest::prop_assert_eq!(left, before.iter().any(|&a| a));
         }
     }
 
