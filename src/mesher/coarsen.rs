@@ -80,7 +80,7 @@ use smallvec::SmallVec;
 
 use super::adapt::{ALIGN, point_triangle_distance};
 use super::crease::SPLIT_DEG;
-use super::planar::{self, FLAT};
+use super::planar::{self, FLAT, on_tangent_plane};
 use super::smooth;
 use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
@@ -293,8 +293,9 @@ impl Coarsener {
     }
 
     /// Retriangulates the flat regions ([`planar`]) the collapses may
-    /// touch: crease points, ambiguous and fixed vertices stay. The
-    /// refinement leaves alone triangles of less than a cell's square.
+    /// touch: crease points and fixed vertices stay (an ambiguous vertex
+    /// may go, handing its flag on). The refinement leaves alone
+    /// triangles of less than a cell's square.
     fn retriangulate_planes<E: Evaluator + ?Sized>(&mut self, f: &E, t: f64) {
         let held: Vec<bool> = (0..self.m.pos.len())
             .map(|v| self.fixed[v] || self.crease[v])
@@ -527,10 +528,9 @@ impl Around {
             })
             .collect();
         near.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-        let flat = near.iter().all(|&(d2, w)| {
+        let flat = near.iter().all(|&(_, w)| {
             let g = m.grad[w as usize];
-            g.dot(DVec3::from_array(nr)) >= 1.0 - FLAT
-                && g.dot(m.pos[w as usize] - pr).abs() <= FLAT * d2.sqrt()
+            g.dot(DVec3::from_array(nr)) >= 1.0 - FLAT && on_tangent_plane(m.pos[w as usize], g, pr)
         });
         let (kappa, kind) = if crease[r as usize] {
             let along = crease_neighbours(m, r, crease);

@@ -155,12 +155,16 @@ fn flat_star(m: &DynMesh, v: u32) -> bool {
     m.star[v as usize].iter().all(|&i| {
         let tri = m.tris[i as usize];
         let q = tri.map(|w| m.pos[w as usize]);
-        let on_plane = q.iter().all(|&w| {
-            let d = w - p;
-            n.dot(d).abs() <= FLAT * d.length()
-        });
-        on_plane && (q[1] - q[0]).cross(q[2] - q[0]).dot(n) > 0.0
+        q.iter().all(|&w| on_tangent_plane(p, n, w))
+            && (q[1] - q[0]).cross(q[2] - q[0]).dot(n) > 0.0
     })
+}
+
+/// Whether `w` lies on the plane through `p` with unit normal `n`, within
+/// [`FLAT`] per length of `w − p`.
+pub fn on_tangent_plane(p: DVec3, n: DVec3, w: DVec3) -> bool {
+    let d = w - p;
+    n.dot(d).abs() <= FLAT * d.length()
 }
 
 /// A region: its inner vertices, triangles, border vertices and directed
@@ -416,10 +420,7 @@ fn border_edges(m: &DynMesh, tris: &[u32], id: u32, scratch: &Scratch) -> Vec<(u
             if scratch.component[a as usize] == id || scratch.component[b as usize] == id {
                 continue;
             }
-            let inside = m.star[a as usize].iter().any(|&j| {
-                j != i && scratch.tri[j as usize] == id && m.tris[j as usize].contains(&b)
-            });
-            if !inside {
+            if !shares_triangle(m, a, b, |j| j != i && scratch.tri[j as usize] == id) {
                 edges.push((a, b));
             }
         }
@@ -429,9 +430,14 @@ fn border_edges(m: &DynMesh, tris: &[u32], id: u32, scratch: &Scratch) -> Vec<(u
 
 /// Whether border vertices `a` and `b` share a triangle outside region `id`.
 fn joined_outside(m: &DynMesh, scratch: &Scratch, id: u32, a: u32, b: u32) -> bool {
+    shares_triangle(m, a, b, |j| scratch.tri[j as usize] != id)
+}
+
+/// Whether `a` and `b` share a live triangle `j` for which `which(j)`.
+fn shares_triangle(m: &DynMesh, a: u32, b: u32, which: impl Fn(u32) -> bool) -> bool {
     m.star[a as usize]
         .iter()
-        .any(|&j| scratch.tri[j as usize] != id && m.tris[j as usize].contains(&b))
+        .any(|&j| which(j) && m.tris[j as usize].contains(&b))
 }
 
 /// The vertex of `cdt` nearest `p` among the corners of what `p` lies in
