@@ -45,7 +45,7 @@ pub struct Origins {
 
 impl Origins {
     /// Records a vertex that splits the edge between vertices `a` and `b`
-    /// in split round `round` (off ∂Ω: boundary edges are never split). An
+    /// in split round `round`, on the faces of Ω both lie on. An
     /// edge split in one round is gone from the next, unless a flip
     /// joined its ends again (smoothing, between two rounds): the round
     /// keeps the ids apart.
@@ -53,7 +53,8 @@ impl Origins {
         let (ia, ib) = (self.ids[a as usize], self.ids[b as usize]);
         let tag = SPLIT | (u64::from(round) << 8);
         self.ids.push(mix(tag, ia.min(ib), ia.max(ib)));
-        self.sides.push(0);
+        self.sides
+            .push(self.sides[a as usize] & self.sides[b as usize]);
     }
 
     /// Whether the edge between vertices `a` and `b` lies in a face of Ω.

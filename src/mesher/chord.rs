@@ -1,14 +1,18 @@
-//! Chord refinement: the edges of an extracted mesh whose midpoints stand
-//! too far off the surface are split, the new vertex projected onto
-//! `f = 0` (faithful `--level`, SPEC §2, between two octree levels).
+//! Chord refinement: the edges of an extracted mesh whose midpoints, or
+//! whose triangles' centroids, stand too far off the surface are split,
+//! the new vertex projected onto `f = 0` (faithful `--level`, SPEC §2,
+//! between two octree levels).
 //!
 //! # Contract
 //!
 //! A round measures every edge's midpoint by its first-order distance
-//! `|f| / ‖∇f‖` to the surface, splits the edges above the tolerance (a
-//! [`Chord`]: its base, plus a share of the sagitta a uniform mesher's
-//! chord has on the curvature `turn / length` the normals at the edge's
-//! ends show) whose
+//! `|f| / ‖∇f‖` to the surface, and with [`Rules::centroids`] every
+//! triangle's centroid too (at the largest turn between its corners'
+//! normals over its longest edge). It splits the edges above the
+//! tolerance (a [`Chord`]: its base, plus a share of the sagitta a
+//! uniform mesher's chord has on the curvature `turn / length` the
+//! normals at the edge's ends show), and the longest edge of each
+//! triangle above it, whose
 //! midpoint projects onto `f = 0` within a quarter of the edge's length,
 //! onto the sheet of the edge's ends (the normal there agrees with both
 //! ends' normals), and
@@ -31,17 +35,18 @@
 //! Every split vertex is shared
 //! by the edge's triangles, so the mesh stays conforming: topology,
 //! closedness and orientation are kept, a boundary edge stays on the
-//! boundary. The decision and the new vertex depend on the edge alone,
-//! so the result does not depend on the order of the edges. Edges with a
+//! boundary. The decision depends on the edge and its triangles, the new
+//! vertex on the edge alone, so the result does not depend on the order of
+//! the edges. Edges with a
 //! crease vertex for an end ([`super::crease`]) are left alone: between
 //! two, the midpoint is off the crease; from one, a split changes the fan
 //! of a crease point, whose normal is one side's and at a corner of three
 //! faces lopsided already, and can turn the fan past 120° from it
-//! (colonnade.vm at level 6, with the splits after smoothing). So are
-//! boundary edges (on the domain's faces, where a projected midpoint
-//! would not be) and any edge without exactly two triangles; new vertices
-//! are crease vertices only when split onto a crease, and are ambiguous
-//! when an end of their edge is.
+//! (colonnade.vm at level 6, with the splits after smoothing). So is any
+//! edge without exactly two triangles but the boundary edges, which lie in
+//! a face of the domain: their midpoints move onto `f = 0` within the face
+//! ([`in_faces`]). New vertices are crease vertices only when split onto
+//! a crease, and are ambiguous when an end of their edge is.
 //!
 //! A part of a mesh (a brick of a bricked run, with its vertices'
 //! [`Origins`]: [`split_edges_in`]) also splits its edges with one
@@ -51,8 +56,7 @@
 //!
 //! # Limits
 //!
-//! The measure is first order and at midpoints only: a triangle whose
-//! centroid stands off while its edges do not is not split. The octree's
+//! The measure is first order, at midpoints and centroids only. The octree's
 //! chord criterion ([`crate::octree::OctreeOptions::chord`]) decides the
 //! coarse sizes; this pass only corrects the last factor below a level.
 //! The mesher runs it after coarsening and smoothing (`split_after_smoothing`
@@ -65,7 +69,7 @@
 
 use glam::DVec3;
 use rayon::prelude::*;
-use rustc_hash::FxHashMap as HashMap;
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use smallvec::SmallVec;
 
 use crate::cancel::{Cancel, Cancelled};
@@ -102,7 +106,7 @@ pub fn split_edges<E: Evaluator + ?Sized>(
     tau: Chord,
     cancel: &Cancel,
 ) -> Result<usize, Cancelled> {
-    split_edges_in(mesh, feature, None, f, t, tau, true, cancel)
+    split_edges_in(mesh, feature, None, f, t, tau, Rules::ALL, cancel)
 }
 
 /// [`split_edges`] on a part of a mesh whose vertices have `origins` (see
@@ -117,7 +121,7 @@ pub fn split_edges_in<E: Evaluator + ?Sized>(
     f: &E,
     t: f64,
     tau: Chord,
-    creases: bool,
+    rules: Rules,
     cancel: &Cancel,
 ) -> Result<usize, Cancelled> {
     let (mut total, mut fresh) = (0, 0);
@@ -125,7 +129,7 @@ pub fn split_edges_in<E: Evaluator + ?Sized>(
         cancel.check()?;
         let part = origins.as_deref_mut().map(|o| (o, round as u32));
         let before = mesh.positions.len() as u32;
-        let n = split_round_from(mesh, feature, part, f, t, (tau, creases), fresh);
+        let n = split_round_from(mesh, feature, part, f, t, (tau, rules), fresh);
         if n == 0 {
             break;
         }
@@ -145,7 +149,7 @@ pub fn split_round<E: Evaluator + ?Sized>(
     t: f64,
     tau: Chord,
 ) -> usize {
-    split_round_in(mesh, feature, None, f, t, tau, true)
+    split_round_in(mesh, feature, None, f, t, tau, Rules::ALL)
 }
 
 /// [`split_round`] on a part of a mesh (see [`split_edges_in`]) whose
@@ -159,9 +163,9 @@ pub fn split_round_in<E: Evaluator + ?Sized>(
     f: &E,
     t: f64,
     tau: Chord,
-    creases: bool,
+    rules: Rules,
 ) -> usize {
-    split_round_from(mesh, feature, origins, f, t, (tau, creases), 0)
+    split_round_from(mesh, feature, origins, f, t, (tau, rules), 0)
 }
 
 /// [`split_round_in`] on the edges with an end numbered `fresh` or more
@@ -173,7 +177,7 @@ fn split_round_from<E: Evaluator + ?Sized>(
     origins: Option<(&mut Origins, u32)>,
     f: &E,
     t: f64,
-    tau: (Chord, bool),
+    tau: (Chord, Rules),
     fresh: u32,
 ) -> usize {
     let part = origins.as_ref().map(|(o, _)| &**o);
@@ -185,6 +189,116 @@ fn split_round_from<E: Evaluator + ?Sized>(
         }
     }
     splits.len()
+}
+
+/// What a round may split besides the edges whose midpoints stand off.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rules {
+    /// An edge across a crease the crease pass left cut off is split onto
+    /// it ([`onto_creases`]); `false` with `--no-creases`.
+    pub creases: bool,
+    /// The longest edge of a triangle whose centroid stands off is split
+    /// (see `far_centroids`). Such an edge's decision reads its triangles,
+    /// not the edge alone, so a run whose parts must equal the whole
+    /// (`--smooth 0` bricks) leaves it off.
+    pub centroids: bool,
+}
+
+impl Rules {
+    /// Every rule on.
+    pub const ALL: Rules = Rules {
+        creases: true,
+        centroids: true,
+    };
+}
+
+/// Edges, each smaller index first.
+type Edges = Vec<(u32, u32)>;
+
+/// The edges marked by their triangles' centroids (smaller index first).
+type Marked = HashSet<(u32, u32)>;
+
+/// Triangles measured per task, as edges are ([`EDGES_PER_TASK`]).
+const TRIANGLES_PER_TASK: usize = 4096;
+
+/// The longest edges of the triangles (with a corner numbered `fresh` or
+/// more, none a crease vertex) whose centroids stand farther than `tau`
+/// at the triangle's curvature (the largest turn between its corners'
+/// normals over its longest edge) off `f = 0`, where that edge has two
+/// triangles. Midpoints alone miss these: an equilateral triangle's
+/// centroid stands a third farther off a sphere than its edges'
+/// midpoints, and smoothing makes triangles equilateral.
+fn far_centroids<E: Evaluator + ?Sized>(
+    mesh: &Mesh,
+    star: &Star,
+    feature: &[bool],
+    f: &E,
+    t: f64,
+    (tau, fresh): (Chord, u32),
+) -> Marked {
+    let (p, n) = (&mesh.positions, &mesh.normals);
+    let crease = |v: u32| feature.get(v as usize).copied().unwrap_or(false);
+    let tris: Vec<[u32; 3]> = mesh
+        .triangles
+        .iter()
+        .filter(|tri| tri.iter().any(|&v| v >= fresh) && !tri.iter().any(|&v| crease(v)))
+        .copied()
+        .collect();
+    let far: Vec<(u32, u32)> = tris
+        .par_chunks(TRIANGLES_PER_TASK)
+        .flat_map_iter(|chunk| {
+            let measured: Vec<((u32, u32), DVec3, f64)> = chunk
+                .iter()
+                .map(|&tri| centroid_tolerance(tau, tri, p, n))
+                .collect();
+            let at: Vec<DVec3> = measured.iter().map(|&(_, c, _)| c).collect();
+            measured
+                .into_iter()
+                .zip(grads_at(f, t, &at))
+                .filter(|&((_, _, tol), (v, g))| beyond(v, g, tol))
+                .map(|((e, _, _), _)| e)
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    far.into_iter()
+        .filter(|&(a, b)| two_triangles(mesh, star, a, b))
+        .collect()
+}
+
+/// A triangle's longest edge (smaller index first), its centroid and the
+/// tolerance there: `tau` at the largest turn between its corners'
+/// normals over that edge's length.
+fn centroid_tolerance(
+    tau: Chord,
+    tri: [u32; 3],
+    p: &[DVec3],
+    n: &[DVec3],
+) -> ((u32, u32), DVec3, f64) {
+    let side = |k: usize| (tri[k], tri[(k + 1) % 3]);
+    let length = |(a, b): (u32, u32)| p[a as usize].distance(p[b as usize]);
+    let (a, b) = (0..3)
+        .map(side)
+        .max_by(|&x, &y| length(x).total_cmp(&length(y)))
+        .expect("three sides");
+    let bend = (0..3)
+        .map(side)
+        .map(|(x, y)| turn(n[x as usize].to_array(), n[y as usize].to_array()))
+        .fold(0.0, f64::max);
+    let centroid = tri.iter().map(|&v| p[v as usize]).sum::<DVec3>() / 3.0;
+    let tol = tau.at(bend, length((a, b)));
+    ((a.min(b), a.max(b)), centroid, tol)
+}
+
+/// Whether the edge `a–b` has exactly two triangles.
+fn two_triangles(mesh: &Mesh, star: &Star, a: u32, b: u32) -> bool {
+    let mut uses: SmallVec<[u32; 4]> = star
+        .of(a as usize)
+        .iter()
+        .copied()
+        .filter(|&ti| mesh.triangles[ti as usize].contains(&b))
+        .collect();
+    uses.dedup();
+    uses.len() == 2
 }
 
 /// Edges measured per task: the midpoints and their gradients exist for
@@ -216,16 +330,21 @@ fn splits<E: Evaluator + ?Sized>(
     part: Option<&Origins>,
     f: &E,
     t: f64,
-    (tau, creases): (Chord, bool),
+    (tau, rules): (Chord, Rules),
     fresh: u32,
 ) -> Vec<Split> {
     let star = Star::new(mesh);
-    let edges = inner_edges(mesh, &star, feature, part, fresh);
-    edges
+    let marked = if rules.centroids {
+        far_centroids(mesh, &star, feature, f, t, (tau, fresh))
+    } else {
+        Marked::default()
+    };
+    let (edges, boundary) = inner_edges(mesh, &star, feature, part, (fresh, &marked));
+    let mut out: Vec<Split> = edges
         .par_chunks(EDGES_PER_TASK)
         .flat_map_iter(|chunk| {
-            let far = far_edges(mesh, chunk, f, t, tau);
-            let onto = if creases {
+            let far = far_edges(mesh, chunk, f, t, tau, &marked);
+            let onto = if rules.creases {
                 onto_creases(mesh, &star, &far, f, t)
             } else {
                 vec![None; far.len()]
@@ -251,6 +370,55 @@ fn splits<E: Evaluator + ?Sized>(
             }
             out
         })
+        .collect();
+    let far = far_edges(mesh, &boundary, f, t, tau, &Marked::default());
+    out.extend(in_faces(mesh, &far, f, t));
+    out
+}
+
+/// The new vertices of `far` edges on ∂Ω: each midpoint moved onto
+/// `f = 0` along the gradient there with the face's normal component
+/// removed ([`line_zero`]), so the new vertex stays in the face both ends
+/// lie in, with the gradient there on the ends' side. The face is the
+/// coordinate both ends share at the mesh's extent (every vertex lies in
+/// Ω, and the ends lie on its face); an edge with no such coordinate, or
+/// two (along an edge of Ω), is left alone.
+fn in_faces<E: Evaluator + ?Sized>(mesh: &Mesh, far: &[Far], f: &E, t: f64) -> Vec<Split> {
+    let (p, n) = (&mesh.positions, &mesh.normals);
+    if far.is_empty() {
+        return Vec::new();
+    }
+    let lo = p.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
+    let hi = p.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
+    let mids: Vec<DVec3> = far.iter().map(|&(_, m, _)| m).collect();
+    let landed: Vec<OnEdge> = far
+        .iter()
+        .zip(grads_at(f, t, &mids))
+        .filter_map(|(&((a, b), mid, reach), (_, g))| {
+            let (pa, pb) = (p[a as usize], p[b as usize]);
+            let mut shared =
+                (0..3).filter(|&k| pa[k] == pb[k] && (pa[k] == lo[k] || pa[k] == hi[k]));
+            let (k, None) = (shared.next()?, shared.next()) else {
+                return None;
+            };
+            let mut dir = g;
+            dir[k] = 0.0;
+            line_zero(f, t, mid, dir, reach).map(|q| ((a, b), q))
+        })
+        .collect();
+    let gs = oriented_grads(f, t, &landed, n);
+    landed
+        .into_iter()
+        .zip(gs)
+        .filter(|&(((a, b), _), g)| {
+            g.is_finite() && g.dot(n[a as usize]) > 0.0 && g.dot(n[b as usize]) > 0.0
+        })
+        .map(|((edge, at), grad)| Split {
+            edge,
+            at,
+            grad,
+            crease: false,
+        })
         .collect()
 }
 
@@ -262,6 +430,7 @@ fn far_edges<E: Evaluator + ?Sized>(
     f: &E,
     t: f64,
     tau: Chord,
+    marked: &Marked,
 ) -> Vec<Far> {
     let (p, n) = (&mesh.positions, &mesh.normals);
     let end = |v: u32| (p[v as usize], n[v as usize]);
@@ -275,7 +444,7 @@ fn far_edges<E: Evaluator + ?Sized>(
         .zip(mids)
         .zip(grads_at(f, t, &at))
         // NaN (no gradient) is not a measurement: no split.
-        .filter(|&((_, (_, tol)), (v, g))| beyond(v, g, tol))
+        .filter(|&((e, (_, tol)), (v, g))| beyond(v, g, tol) || marked.contains(e))
         .map(|((&(a, b), (mid, _)), _)| {
             ((a, b), mid, REACH * p[a as usize].distance(p[b as usize]))
         })
@@ -520,18 +689,19 @@ fn unfolded(mesh: &Mesh, star: &Star, (a, b): (u32, u32), q: DVec3) -> bool {
     sides == 2 && fans.iter().all(|&(u, s)| s.dot(n[u as usize]) > 0.0)
 }
 
-/// The edges (smaller index first, sorted) with exactly two triangles and
-/// no end on a crease, among those with an end numbered `fresh` or
-/// more. A boundary edge lies on the domain's face, where a projected
-/// midpoint would not. In a `part` of a mesh, also the edges with one
-/// triangle off ∂Ω (a seam: see the module doc).
+/// The edges (smaller index first, sorted) with no end on a crease,
+/// among those with an end numbered `fresh` or more or `marked`: those
+/// with exactly two triangles (in a `part` of a mesh, also those with one
+/// triangle off ∂Ω, a seam: see the module doc), and apart the boundary
+/// edges (one triangle, on ∂Ω), whose midpoints move within their face
+/// ([`in_faces`]).
 fn inner_edges(
     mesh: &Mesh,
     star: &Star,
     feature: &[bool],
     part: Option<&Origins>,
-    fresh: u32,
-) -> Vec<(u32, u32)> {
+    (fresh, marked): (u32, &Marked),
+) -> (Edges, Edges) {
     let crease = |v: u32| feature.get(v as usize).copied().unwrap_or(false);
     let tris = &mesh.triangles;
     (0..mesh.positions.len() as u32)
@@ -551,24 +721,34 @@ fn inner_edges(
                 for k in 0..3 {
                     let (x, y) = (t[k], t[(k + 1) % 3]);
                     let (lo, hi) = (x.min(y), x.max(y));
-                    if lo == a && hi >= fresh && !(crease(lo) || crease(hi)) {
+                    let measured = hi >= fresh || marked.contains(&(lo, hi));
+                    if lo == a && measured && !(crease(lo) || crease(hi)) {
                         uses.push(hi);
                     }
                 }
             }
             uses.sort_unstable();
-            // The edges used exactly twice (once, on a part's seam).
-            let mut kept: SmallVec<[(u32, u32); 8]> = SmallVec::new();
+            // The edges used exactly twice (once, on a part's seam), and
+            // apart those used once on ∂Ω.
+            let mut kept: SmallVec<[((u32, u32), bool); 8]> = SmallVec::new();
             for run in uses.chunk_by(|x, y| x == y) {
                 let b = run[0];
-                let seam = run.len() == 1 && part.is_some_and(|o| !o.on_boundary(a, b));
-                if run.len() == 2 || seam {
-                    kept.push((a, b));
+                let on_face = part.is_none_or(|o| o.on_boundary(a, b));
+                match run.len() {
+                    2 => kept.push(((a, b), false)),
+                    1 => kept.push(((a, b), on_face)),
+                    _ => {}
                 }
             }
             kept
         })
-        .collect()
+        .partition_map(|(e, on_face)| {
+            if on_face {
+                rayon::iter::Either::Right(e)
+            } else {
+                rayon::iter::Either::Left(e)
+            }
+        })
 }
 
 /// Splits `mesh`'s edges at the given vertices (see the module doc).

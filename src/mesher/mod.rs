@@ -364,7 +364,12 @@ fn split_after_smoothing<E: Evaluator + ?Sized>(
     opts: &MeshOptions,
     cancel: &Cancel,
 ) -> Result<(), Cancelled> {
-    let creases = opts.creases;
+    // A centroid's split reads the edge's triangles: with smoothing off, a
+    // brick's seam must split as the whole run does, edge by edge.
+    let rules = chord::Rules {
+        creases: opts.creases,
+        centroids: opts.smooth > 0,
+    };
     let seam = |mesh: &Mesh, origins: Option<&Origins>| match origins {
         Some(o) => brick::seam(mesh, o),
         None => Vec::new(),
@@ -377,7 +382,7 @@ fn split_after_smoothing<E: Evaluator + ?Sized>(
         f,
         t,
         tau,
-        creases,
+        rules,
         cancel,
     )?;
     if opts.smooth > 0 {
@@ -402,7 +407,7 @@ fn split_after_smoothing<E: Evaluator + ?Sized>(
     }
     // The round after smoothing: numbered after the others.
     let round = origins.as_deref_mut().map(|o| (o, chord::ROUNDS as u32));
-    chord::split_round_in(mesh, feature, round, f, t, tau, creases);
+    chord::split_round_in(mesh, feature, round, f, t, tau, rules);
     let on_seam = seam(mesh, origins.as_deref());
     weld::weld_coincident_in(mesh, &mut Vec::new(), &on_seam, origins, Some(feature));
     Ok(())

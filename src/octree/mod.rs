@@ -228,7 +228,7 @@ pub struct OctreeOptions {
     /// Prune the program per subtree (see the module doc's "Pruning").
     pub prune: bool,
     /// Faithful `--level` (SPEC §2): the chord tolerance on a flat piece,
-    /// in sides of a maximal-level cell (the smallest side of Ω over
+    /// in sides of a maximal-level cell (the cube root of Ω's volume over
     /// `2^max_level`); where the surface is curved the tolerance adds a
     /// share of a uniform mesher's chord error there ([`Chord`],
     /// [`OctreeOptions::chord_tolerance`] in domain units). Below the
@@ -257,14 +257,15 @@ impl Default for OctreeOptions {
 
 impl OctreeOptions {
     /// The chord tolerance [`OctreeOptions::chord`] in domain units: its
-    /// share of the smallest side of a maximal-level cell of `domain` on a
-    /// flat piece, more where the surface is curved ([`Chord`]).
+    /// share of the side of a maximal-level cell of `domain` on a flat
+    /// piece, more where the surface is curved ([`Chord`]). Where `domain`
+    /// is not a cube, the side is that of a cube of a maximal-level cell's
+    /// volume (the geometric mean of its sides): a uniform mesher with
+    /// `2^L` cells per axis has as many cells.
     pub fn chord_tolerance(&self, domain: Bounds) -> Option<Chord> {
-        let side = (0..3)
-            .map(|k| domain.hi[k] - domain.lo[k])
-            .fold(f64::INFINITY, f64::min);
+        let volume: f64 = (0..3).map(|k| domain.hi[k] - domain.lo[k]).product();
         let level = self.max_level.min(MAX_LEVEL);
-        let cell = side / (1u64 << level) as f64;
+        let cell = volume.cbrt() / (1u64 << level) as f64;
         self.chord.map(|c| Chord {
             base: c * cell,
             cell,
@@ -1440,6 +1441,44 @@ impl Octree {
 mod tests {
     use super::*;
     use crate::testing::{Rng, surface};
+
+    /// The chord tolerance's cell is a maximal-level cell's side on a
+    /// cube, and on a box the side of a cube of that cell's volume: a box
+    /// eight times as long as it is wide and deep has cells twice as
+    /// large as the cube on its width, and half as large as the cube on
+    /// its length. Its base is `chord` cells; `None` gives none.
+    #[test]
+    fn the_chord_tolerance_reads_the_cell_of_a_box_by_its_volume() {
+        let opts = OctreeOptions {
+            max_level: 3,
+            chord: Some(0.5),
+            ..OctreeOptions::default()
+        };
+        let cube = Bounds {
+            lo: [0.0; 3],
+            hi: [8.0; 3],
+        };
+        let long = Bounds {
+            lo: [0.0; 3],
+            hi: [8.0, 1.0, 1.0],
+        };
+        let tol = |b| opts.chord_tolerance(b).expect("on");
+        assert_eq!(
+            tol(cube),
+            Chord {
+                base: 0.5,
+                cell: 1.0
+            }
+        );
+        let c = tol(long);
+        assert!((c.cell - 0.25).abs() < 1e-15, "{c:?}");
+        assert!((c.base - 0.125).abs() < 1e-15, "{c:?}");
+        let coarse = OctreeOptions {
+            chord: None,
+            ..opts
+        };
+        assert_eq!(coarse.chord_tolerance(long), None);
+    }
 
     /// `f = (u + v)² + (u - v)² + 2w² - r²` with `(u, v, w) = p - c` is
     /// twice the squared distance to `c`, so its gradient vanishes only at

@@ -284,11 +284,87 @@ fn later_chord_rounds_measure_only_new_edges_and_split_the_same() {
     }
 }
 
+/// The first-order distance `|f| / ‖∇f‖` from `p` to `s = 0` (the
+/// mesher's own measure).
+fn first_order(s: &isoc::Surface, p: DVec3) -> f64 {
+    let (v, g) = s.point_grad([p.x, p.y, p.z, 0.0]);
+    v.abs() / DVec3::from_array(g).length()
+}
+
+/// With the defaults, every triangle's centroid, not only its edges'
+/// midpoints, stands within the tolerance off a sphere: smoothing makes
+/// triangles equilateral, whose centroids stand a third farther off than
+/// their edges' midpoints, so the chord splits measure both. A chord of
+/// the unit sphere turns the normals at its ends by a little more than
+/// its length: the tolerance at curvature 1, with 1 % to spare, bounds
+/// every triangle's.
+#[test]
+fn centroids_stand_within_the_tolerance_too() {
+    let s = surface("domain [-1.5, 1.5]^3; surface x^2 + y^2 + z^2 - 1;");
+    for level in [6u8, 7] {
+        let opts = OctreeOptions {
+            max_level: level,
+            ..OctreeOptions::default()
+        };
+        let allowed = 1.01 * opts.chord_tolerance(s.domain).expect("on").at(1.0, 1.0);
+        let (mesh, _) = mesh_at(&s, opts);
+        let centroid =
+            |t: &[u32; 3]| t.iter().map(|&v| mesh.positions[v as usize]).sum::<DVec3>() / 3.0;
+        let far = mesh
+            .triangles
+            .iter()
+            .filter(|t| first_order(&s, centroid(t)) > allowed)
+            .count();
+        assert_eq!(far, 0, "L{level}: of {} triangles", mesh.triangles.len());
+    }
+}
+
+/// A cap of a large sphere (radius 3) cut by the domain's four side faces:
+/// the octree stops far above the last level there, and the boundary
+/// edges, split within their face (the gradient's component across the
+/// face removed), stand within the tolerance at the cap's curvature like
+/// every other edge, their ends exactly on the face, the mesh 2-manifold
+/// and open only on ∂Ω.
+#[test]
+fn boundary_edges_are_split_within_their_face() {
+    let s = surface("domain [-1, 1]^3; surface x^2 + y^2 + (z + 2.8)^2 - 9;");
+    let opts = OctreeOptions {
+        max_level: 7,
+        ..OctreeOptions::default()
+    };
+    let allowed = 1.01 * opts.chord_tolerance(s.domain).expect("on").at(1.0, 3.0);
+    let (mesh, report) = mesh_at(&s, opts);
+    let t = &report.topology;
+    assert!(t.manifold() && t.open_edges == 0, "{t:?}");
+    let mut uses = std::collections::HashMap::new();
+    for tri in &mesh.triangles {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    let p = &mesh.positions;
+    let boundary: Vec<(u32, u32)> = uses
+        .into_iter()
+        .filter(|&(_, n)| n == 1)
+        .map(|(e, _)| e)
+        .collect();
+    assert_eq!(boundary.len(), t.boundary_edges);
+    assert!(boundary.len() > 16, "{t:?}");
+    for (a, b) in boundary {
+        let (pa, pb) = (p[a as usize], p[b as usize]);
+        let face = (0..2).find(|&k| pa[k].abs() == 1.0 && pb[k] == pa[k]);
+        assert!(face.is_some(), "{pa} {pb} not on one side face");
+        let d = first_order(&s, (pa + pb) * 0.5);
+        assert!(d <= allowed, "{pa} {pb}: {d:e} > {allowed:e}");
+    }
+}
+
 #[test]
 fn chord_splits_leave_the_domain_boundary_closed() {
     // A ball cut by two faces of the domain: its boundary edges lie on
-    // them, and stay there (a split there would pull the new vertex off
-    // the face, opening the mesh).
+    // them, and stay there (a split there moves the new vertex within
+    // the face: off it, the mesh would open).
     let s = surface("domain [-1, 1]^3; surface (x - 0.5)^2 + (y - 0.4)^2 + z^2 - 0.81;");
     for level in [5u8, 6] {
         let (_, report) = mesh_at(
@@ -334,7 +410,10 @@ fn a_chamfer_is_split_onto_its_crease() {
             &wedge,
             0.0,
             tau,
-            creases,
+            isoc::mesher::chord::Rules {
+                creases,
+                centroids: true,
+            },
             &isoc::Cancel::new(),
         )
         .expect("never cancelled");

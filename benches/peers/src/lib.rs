@@ -585,11 +585,9 @@ pub fn topology(tris: &[[usize; 3]]) -> MeshTopology {
     let euler = v_used as i64 - edges.len() as i64 + tris.len() as i64;
     // per-component χ
     let mut comp: HashMap<usize, (i64, i64, i64)> = HashMap::new();
-    for i in 0..nv {
-        if used[i] {
-            let r = find(&mut parent, i);
-            comp.entry(r).or_default().0 += 1;
-        }
+    for (i, _) in used.iter().enumerate().take(nv).filter(|&(_, &u)| u) {
+        let r = find(&mut parent, i);
+        comp.entry(r).or_default().0 += 1;
     }
     for &(a, _) in edges.keys() {
         let r = find(&mut parent, a);
