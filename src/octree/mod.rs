@@ -348,7 +348,9 @@ fn chord_within<E: Evaluator + ?Sized>(
         .zip(at.chunks_exact(8))
         .map(|(&i, at)| {
             let grads: [[f64; 3]; 8] = std::array::from_fn(|c| at[c].1);
-            let side = (hi(i) - lo(i)).min_element();
+            // On a box, the side of a cube of its volume, as the
+            // tolerance's cell ([`OctreeOptions::chord_tolerance`]).
+            let side = (hi(i) - lo(i)).element_product().cbrt();
             criteria::chord_within(side, &grads, tau)
         })
         .collect()

@@ -360,6 +360,34 @@ fn boundary_edges_are_split_within_their_face() {
     }
 }
 
+/// A thin tube on a flat domain (a tube around a figure eight, genus 2,
+/// in a box four times as long as it is deep) at level 7: the octree's
+/// chord estimate reads a cell by the side of a cube of its volume, as
+/// the tolerance does. Read by its smallest side, cells four times as
+/// long in `x` were kept across the tube's ends, where the tube's top
+/// bends with a radius of one such cell, and chords there stood twelve
+/// times the tolerance off.
+#[test]
+fn a_flat_domain_is_refined_as_its_tolerance_reads_it() {
+    let s = surface(
+        "domain [-0.6, 2.6], [-1.2, 1.2], [-0.4, 0.4];
+         fn eight(u, v) = u*(u - 1)^2*(u - 2) + v^2;
+         surface eight(x, y)^2 + z^2 - 0.01;",
+    );
+    let opts = OctreeOptions {
+        max_level: 7,
+        ..OctreeOptions::default()
+    };
+    // The tolerance at the largest curvature it reads.
+    let most = opts.chord_tolerance(s.domain).expect("on").at(1.0, 1e-12);
+    let (mesh, report) = mesh_at(&s, opts);
+    let t = &report.topology;
+    assert!(t.manifold() && t.watertight, "{t:?}");
+    assert_eq!(t.genus, vec![Some(2)]);
+    let e = chord_p999(&mesh, &|p| first_order(&s, p));
+    assert!(e <= 2.0 * most, "chord {e:e} against {most:e}");
+}
+
 #[test]
 fn chord_splits_leave_the_domain_boundary_closed() {
     // A ball cut by two faces of the domain: its boundary edges lie on

@@ -32,14 +32,19 @@ pub const CORPUS: [&str; 9] = [
 /// corpus formulas; named by file name.
 pub const MODELS: [&str; 2] = ["colonnade.vm", "tanglecube.vm"];
 
-/// Path of a corpus file (`heart`) or a shared model (`colonnade.vm`),
-/// found from this crate's manifest directory.
+/// Path of a corpus file (`heart`), one of this benchmark's own surfaces
+/// (`surfaces/sphere_r32.iso`) or a shared model (`colonnade.vm`), found
+/// from this crate's manifest directory.
 pub fn corpus_path(name: &str) -> std::path::PathBuf {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let file = format!("{name}.iso");
     if name.ends_with(".vm") {
         root.join("../../../shared/models").join(name)
+    } else if root.join("surfaces").join(&file).exists() {
+        // The benchmark's own surfaces (no `expect` line: not the corpus).
+        root.join("surfaces").join(file)
     } else {
-        root.join("../../corpus").join(format!("{name}.iso"))
+        root.join("../../corpus").join(file)
     }
 }
 
