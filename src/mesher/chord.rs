@@ -384,7 +384,7 @@ fn splits<E: Evaluator + ?Sized>(
 /// Ω, and the ends lie on its face); an edge with no such coordinate, or
 /// two (along an edge of Ω), is left alone.
 fn in_faces<E: Evaluator + ?Sized>(mesh: &Mesh, far: &[Far], f: &E, t: f64) -> Vec<Split> {
-    let (p, n) = (&mesh.positions, &mesh.normals);
+    let p = &mesh.positions;
     if far.is_empty() {
         return Vec::new();
     }
@@ -406,20 +406,7 @@ fn in_faces<E: Evaluator + ?Sized>(mesh: &Mesh, far: &[Far], f: &E, t: f64) -> V
             line_zero(f, t, mid, dir, reach).map(|q| ((a, b), q))
         })
         .collect();
-    let gs = oriented_grads(f, t, &landed, n);
-    landed
-        .into_iter()
-        .zip(gs)
-        .filter(|&(((a, b), _), g)| {
-            g.is_finite() && g.dot(n[a as usize]) > 0.0 && g.dot(n[b as usize]) > 0.0
-        })
-        .map(|((edge, at), grad)| Split {
-            edge,
-            at,
-            grad,
-            crease: false,
-        })
-        .collect()
+    on_ends_sheet(mesh, landed, f, t)
 }
 
 /// The edges of `chunk` whose midpoints stand farther than the tolerance
@@ -455,15 +442,28 @@ fn far_edges<E: Evaluator + ?Sized>(
 /// onto `f = 0`, with the gradient there on the sheet of the edge's ends
 /// (not across a thin wall).
 fn from_midpoints<E: Evaluator + ?Sized>(mesh: &Mesh, far: &[Far], f: &E, t: f64) -> Vec<Split> {
-    let n = &mesh.normals;
     let starts: Vec<(DVec3, f64)> = far.iter().map(|&(_, m, r)| (m, r)).collect();
     let projected: Vec<OnEdge> = far
         .iter()
         .zip(project_along_batch(f, t, &starts))
         .filter_map(|(&(e, _, _), r)| r.map(|(q, _)| (e, q)))
         .collect();
-    let gs = oriented_grads(f, t, &projected, n);
-    projected
+    on_ends_sheet(mesh, projected, f, t)
+}
+
+/// The splits at the points `landed` on `f = 0`, each for its edge, whose
+/// gradient there (the new vertex's normal, [`oriented_grads`]) agrees
+/// with both ends' normals: the point lies on the ends' sheet, not across
+/// a thin wall.
+fn on_ends_sheet<E: Evaluator + ?Sized>(
+    mesh: &Mesh,
+    landed: Vec<OnEdge>,
+    f: &E,
+    t: f64,
+) -> Vec<Split> {
+    let n = &mesh.normals;
+    let gs = oriented_grads(f, t, &landed, n);
+    landed
         .into_iter()
         .zip(gs)
         .filter(|&(((a, b), _), g)| {
