@@ -18,7 +18,7 @@ use isoc::mesher::coarsen::{Marks, coarsen};
 use isoc::octree::Chord;
 use isoc::{Cancel, Mesh, MeshOptions, OctreeOptions};
 
-use crate::support::{position_bits, surface};
+use crate::support::{edge_uses, position_bits, surface};
 
 const TORUS: &str = "domain [-1.5, 1.5]^3; surface (sqrt(x^2 + y^2) - 1)^2 + z^2 - 0.09;";
 
@@ -162,14 +162,7 @@ fn coarsening_keeps_a_boundary_where_the_domain_cuts() {
     let src = "domain [-1, 1]^3; surface (x - 0.5)^2 + (y - 0.4)^2 + z^2 - 0.81;";
     let (s, input, tau) = extracted(src, 6);
     let boundary = |m: &Mesh| {
-        let mut uses = std::collections::HashMap::new();
-        for t in &m.triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-            }
-        }
-        let mut edges: Vec<[[u64; 3]; 2]> = uses
+        let mut edges: Vec<[[u64; 3]; 2]> = edge_uses(m)
             .into_iter()
             .filter(|&(_, n)| n == 1)
             .map(|((a, b), _)| {

@@ -14,7 +14,7 @@
 use glam::DVec3;
 use isoc::{MeshOptions, OctreeOptions};
 
-use crate::support::{position_bits, surface};
+use crate::support::{edge_uses, position_bits, surface};
 
 /// The 99.9th percentile of `dist` over the centroids and edge midpoints.
 fn chord_p999(mesh: &isoc::Mesh, dist: &dyn Fn(DVec3) -> f64) -> f64 {
@@ -336,15 +336,8 @@ fn boundary_edges_are_split_within_their_face() {
     let (mesh, report) = mesh_at(&s, opts);
     let t = &report.topology;
     assert!(t.manifold() && t.open_edges == 0, "{t:?}");
-    let mut uses = std::collections::HashMap::new();
-    for tri in &mesh.triangles {
-        for k in 0..3 {
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-        }
-    }
     let p = &mesh.positions;
-    let boundary: Vec<(u32, u32)> = uses
+    let boundary: Vec<(u32, u32)> = edge_uses(&mesh)
         .into_iter()
         .filter(|&(_, n)| n == 1)
         .map(|(e, _)| e)

@@ -1253,13 +1253,7 @@ fn fan_normals(mesh: &Mesh) -> Vec<DVec3> {
 /// (their levels and kinds: a level transition shows as two levels), and
 /// its distance to ∂Ω in finest cells.
 pub fn bad_edge_sites(s: &Surface, mesh: &Mesh, opts: &MeshOptions, domain: &Bounds) -> String {
-    let mut uses: HashMap<(u32, u32), usize> = HashMap::new();
-    for t in &mesh.triangles {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
+    let uses = super::edge_uses(mesh);
     let h = finest_cell(opts, domain);
     let on_face = |p: DVec3| {
         (0..3).any(|k| {

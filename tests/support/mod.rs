@@ -23,6 +23,19 @@ use isoc::interval::Interval;
 use isoc::ir::{BinOp, Const, Op, Program, UnOp, Value, Var};
 use proptest::prelude::*;
 
+/// How many triangles of `m` use each edge (smaller index first): 2 for
+/// an inner edge of a closed 2-manifold, 1 for a boundary edge.
+pub fn edge_uses(m: &isoc::Mesh) -> std::collections::HashMap<(u32, u32), usize> {
+    let mut uses = std::collections::HashMap::new();
+    for t in &m.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    uses
+}
+
 /// The bits of every vertex position of `m`, in vertex order (meshes that
 /// must be equal bit for bit; duplicated positions).
 pub fn position_bits(m: &isoc::Mesh) -> Vec<[u64; 3]> {
