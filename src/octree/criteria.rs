@@ -5,6 +5,7 @@
 //! |---|---|---|
 //! | connected component | `0 ∉ F(B)`, `F` defined on all of `B` | the cell holds no surface: discard |
 //! | topology (paper) | `(0,0,0) ∈ ∇F(B)` | subdivide; ambiguous at the last level |
+//! | topology on ∂Ω (a cell on a face or an edge of Ω that `F` may cross, [`boundary_holds`]) | both components of `∇F(B)` along the face, or the one along the edge, hold 0 | subdivide; ambiguous at the last level |
 //! | topology (`certify`) | `0 ∈ Σ ∂ᵢF(B) ⊗ ∂ᵢF(B)` with the two factors independent | subdivide; ambiguous at the last level |
 //! | topology along `d` (paper's test, last level, across a crease: `super::crease`) | `0 ∈ d·∇F(B)`, `d` the sign pattern of `∇F(B)` | ambiguous |
 //! | geometry | `Diam(∇F(B)/‖∇F(B)‖) > k_max` | subdivide (not a guarantee) |
@@ -145,6 +146,32 @@ pub(crate) fn judge(
         grad: g.grad,
         sheet: false,
     }
+}
+
+/// The topology test on ∂Ω for a cell that passed the 3D test and lies
+/// on faces of Ω (`faces[k]`: its box reaches the low or the high face
+/// across axis `k`). There the sheet is cut by Ω, and the mesh's boundary
+/// follows its trace: on a face a curve, certified by the paper's test in
+/// two dimensions (one of the gradient's two components along the face
+/// excludes 0: no singular point of the trace in the cell); on an edge of
+/// Ω (two faces) points, certified in one dimension (the component along
+/// the edge excludes 0: at most one crossing). `crosses(k, e)` says
+/// whether the sheet may reach the piece of ∂Ω in question (`e` false: the
+/// face across axis `k`; true: the edge along axis `k`), from an
+/// enclosure of `F` there; a piece it cannot reach asks nothing. Without
+/// it a sheet meeting a face at a grazing angle, whose trace is a wedge
+/// thinner than a cell, was cut in two by the dual grid and called
+/// guaranteed (a random CSG scene in a box domain, seed 61661 at level
+/// 7; `z = x² + y² − ε` cut by `z = 0`).
+pub(crate) fn boundary_holds(
+    grad: [Interval; 3],
+    faces: [bool; 3],
+    mut crosses: impl FnMut(usize, bool) -> bool,
+) -> bool {
+    let along = |k: usize| (0..3).any(|j| j != k && grad[j].excludes_zero());
+    let faces_hold = (0..3).all(|k| !faces[k] || along(k) || !crosses(k, false));
+    let on_edge = |k: usize| (0..3).all(|j| j == k || faces[j]);
+    faces_hold && (0..3).all(|k| !on_edge(k) || grad[k].excludes_zero() || !crosses(k, true))
 }
 
 /// The paper's test on a gradient enclosure: `(0,0,0) ∉ G`.
@@ -367,6 +394,37 @@ pub(crate) fn chord_within(side: f64, grads: &[[f64; 3]], tol: &Chord) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Off ∂Ω nothing is asked; on a face, one of the gradient's two
+    /// components along it must exclude 0 (the one across it does not
+    /// count); on an edge of Ω, the component along the edge; a face or an
+    /// edge the sheet cannot reach asks nothing.
+    #[test]
+    fn the_boundary_asks_for_a_gradient_along_it() {
+        let iv = |lo: f64, hi: f64| Interval { lo, hi };
+        let reach = |_: usize, _: bool| true;
+        // ∂F/∂z away from 0, the others holding it.
+        let across_z = [iv(-1.0, 1.0), iv(-0.5, 0.5), iv(0.9, 1.1)];
+        assert!(boundary_holds(across_z, [false; 3], reach));
+        assert!(boundary_holds(across_z, [true, false, false], reach));
+        assert!(boundary_holds(across_z, [false, true, false], reach));
+        assert!(!boundary_holds(across_z, [false, false, true], reach));
+        // The face z = const out of the sheet's reach.
+        let not_z = |k: usize, edge: bool| edge || k != 2;
+        assert!(boundary_holds(across_z, [false, false, true], not_z));
+        // Along the face z = const, ∂F/∂x away from 0: certified.
+        let along_x = [iv(0.1, 0.2), iv(-0.5, 0.5), iv(0.9, 1.1)];
+        assert!(boundary_holds(along_x, [false, false, true], reach));
+        // On the edge along y (faces across x and z), ∂F/∂y holds 0 —
+        // unless the sheet cannot reach that edge; along z, ∂F/∂z is away
+        // from 0.
+        assert!(!boundary_holds(along_x, [true, false, true], reach));
+        assert!(boundary_holds(along_x, [true, false, true], |_, e| !e));
+        assert!(boundary_holds(along_x, [true, true, false], reach));
+        // A NaN bound certifies nothing.
+        let nan = [iv(f64::NAN, 1.0), iv(-0.5, 0.5), iv(0.9, 1.1)];
+        assert!(!boundary_holds(nan, [false, false, true], reach));
+    }
 
     /// On a flat piece the tolerance is the base; on a sphere of radius
     /// `r` (the normal turns by `s / r` over a length `s`, whatever `s`)

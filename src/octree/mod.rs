@@ -16,7 +16,9 @@
 //! - otherwise it is subdivided while its level is below `min_level`, or
 //!   while it fails the topology or the geometry criterion and its level is
 //!   below `max_level`;
-//! - a leaf that stops at `max_level` still failing the topology criterion,
+//! - a leaf that stops at `max_level` still failing the topology criterion
+//!   (for a cell on ∂Ω, also the sheet's trace on the faces and edges of Ω
+//!   it may reach: [`criteria::boundary_holds`]),
 //!   or on which `F` is not defined and continuous everywhere (SPEC §1), is
 //!   [`Leaf::Ambiguous`]; the other surface leaves are [`Leaf::Surface`].
 //!
@@ -97,7 +99,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use crate::cancel::{Cancel, Cancelled, uncancelled};
 use crate::eval::{Evaluator, Reference, WHOLE, WHOLE_GRAD, prune};
 use crate::geometry::Bounds;
-use crate::interval::Interval;
+use crate::interval::{DecInterval, Interval};
 use crate::ir::Program;
 pub use criteria::{Chord, TopologyTest};
 pub use field::Field;
@@ -354,6 +356,74 @@ fn chord_within<E: Evaluator + ?Sized>(
             criteria::chord_within(side, &grads, tau)
         })
         .collect()
+}
+
+/// The sides of Ω a node's cell lies on, per axis: on the low face, on
+/// the high face.
+fn sides(node: &Node) -> [(bool, bool); 3] {
+    let last = (1u32 << node.level) - 1;
+    node.ijk.map(|i| (i == 0, i == last))
+}
+
+/// The topology test on ∂Ω ([`criteria::boundary_holds`]) on the cells
+/// whose verdict passed the 3D test and that lie on faces of Ω (`sides`,
+/// per cell): failed there, the cell's topology (and geometry) test
+/// fails. Whether the sheet may reach a face or an edge of the cell on
+/// ∂Ω is read, where the gradient alone does not certify it, from `f`'s
+/// enclosure over that piece.
+fn boundary_look<E: Evaluator + ?Sized>(
+    f: &E,
+    cells: &[[Interval; 4]],
+    sides: &[[(bool, bool); 3]],
+    verdicts: &mut [criteria::Verdict],
+) {
+    for ((cell, sides), v) in cells.iter().zip(sides).zip(verdicts.iter_mut()) {
+        let faces = sides.map(|(lo, hi)| lo || hi);
+        if !v.topology_ok || !faces.contains(&true) {
+            continue;
+        }
+        let crosses = |k: usize, edge: bool| reaches(f, cell, sides, k, edge);
+        if !criteria::boundary_holds(v.grad, faces, crosses) {
+            v.topology_ok = false;
+            v.geometry_ok = false;
+        }
+    }
+}
+
+/// Whether `f`'s enclosure may vanish on the piece of ∂Ω `cell` lies on
+/// (`sides`): the face across axis `k`, or with `edge` the edge along
+/// axis `k` (both other axes on faces) — on each of its sides where the
+/// cell lies on two (a level-0 cell).
+fn reaches<E: Evaluator + ?Sized>(
+    f: &E,
+    cell: &[Interval; 4],
+    sides: &[(bool, bool); 3],
+    k: usize,
+    edge: bool,
+) -> bool {
+    let pinned: Vec<usize> = (0..3)
+        .filter(|&j| if edge { j != k } else { j == k })
+        .collect();
+    let mut boxes = vec![*cell];
+    for &j in &pinned {
+        let ends: Vec<f64> = [(sides[j].0, cell[j].lo), (sides[j].1, cell[j].hi)]
+            .into_iter()
+            .filter_map(|(on, x)| on.then_some(x))
+            .collect();
+        boxes = boxes
+            .iter()
+            .flat_map(|b| {
+                ends.iter().map(move |&x| {
+                    let mut b = *b;
+                    b[j] = Interval { lo: x, hi: x };
+                    b
+                })
+            })
+            .collect();
+    }
+    let mut out = vec![DecInterval::new(Interval::ENTIRE, false); boxes.len()];
+    f.interval_batch(&boxes, &mut out);
+    out.iter().any(|d| !(d.defined && d.iv.excludes_zero()))
 }
 
 /// Gives the cells `cells[i]` for `i` in `open` (evaluated by `f`) a second
@@ -1008,6 +1078,10 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
                 cell_input(a, b, opts.t)
             })
             .collect();
+        let sides_of: Vec<[(bool, bool); 3]> = chunk
+            .iter()
+            .map(|(i, _)| sides(&tree.nodes[*i as usize]))
+            .collect();
         let mut out = Vec::with_capacity(chunk.len());
         let mut start = 0;
         while start < chunk.len() {
@@ -1030,6 +1104,8 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
                         None => e,
                     };
                     crease::crease_look(along, &cells[start..end], &mut v, opts, last);
+                    let on = &sides_of[start..end];
+                    boundary_look(e, &cells[start..end], on, &mut v);
                     // Above the last level, cells whose own program is
                     // planar pieces (faithful `--level` only).
                     // With or without pruning alike: the full program
