@@ -15,6 +15,8 @@
 //!   environment (`ISOC_CSG_COUNT`, default 2000; `ISOC_CSG_LEVEL`,
 //!   default 7; `ISOC_CSG_FIRST`, the first seed, default 1,000,000;
 //!   `ISOC_CSG_PLAIN`, every how many scenes also meshed plain, default 3;
+//!   `ISOC_CSG_BOX=1`, each scene in a random box domain instead of
+//!   `[-1, 1]³`, [`Scene::in_random_box`];
 //!   `ISOC_CSG_OUT`, a directory to write each failing scene to as
 //!   `seed_<N>_L<level>.iso` with the failed checks as comments). Run it
 //!   with `cargo test --release --test mesh csg::stress -- --ignored
@@ -38,9 +40,18 @@ use isoc::Surface;
 /// Meshes the scenes of `seeds` at `level` (every `plain_every`-th also
 /// plain) and returns the failure descriptions and the counts.
 fn run(seeds: std::ops::Range<u64>, level: u8, plain_every: u64, sink: &mut Tally) {
+    run_in(seeds, level, plain_every, false, sink)
+}
+
+/// [`run`], with each scene's domain a random box when `boxed`
+/// ([`Scene::in_random_box`]).
+fn run_in(seeds: std::ops::Range<u64>, level: u8, plain_every: u64, boxed: bool, sink: &mut Tally) {
     let cfg = Config::default();
     for seed in seeds {
-        let scene = Scene::random(seed, &cfg);
+        let mut scene = Scene::random(seed, &cfg);
+        if boxed {
+            scene = scene.in_random_box();
+        }
         let s = compile(&scene.source, &format!("seed_{seed}.iso"));
         let mut variants = vec![false];
         if plain_every > 0 && seed.is_multiple_of(plain_every) {
@@ -120,6 +131,8 @@ fn random_scenes() {
     run(0..200, 5, 3, &mut tally);
     run(1000..1080, 6, 3, &mut tally);
     run(2000..2030, 7, 3, &mut tally);
+    // Box domains, 20:1 at most, cutting the shapes anywhere.
+    run_in(3000..3060, 6, 3, true, &mut tally);
     eprintln!(
         "csg random_scenes: {} in {:.1} s",
         tally.summary(),
@@ -271,6 +284,7 @@ fn stress() {
     let level: u8 = env("ISOC_CSG_LEVEL", 7);
     let first: u64 = env("ISOC_CSG_FIRST", 1_000_000);
     let plain_every: u64 = env("ISOC_CSG_PLAIN", 3);
+    let boxed = std::env::var("ISOC_CSG_BOX").is_ok_and(|v| v == "1");
     let out = std::env::var("ISOC_CSG_OUT").ok();
     if let Some(dir) = &out {
         std::fs::create_dir_all(dir).expect("ISOC_CSG_OUT can be created");
@@ -279,10 +293,11 @@ fn stress() {
     let mut tally = Tally::default();
     let mut written = 0;
     for chunk in (first..first + count).step_by(100) {
-        run(
+        run_in(
             chunk..(chunk + 100).min(first + count),
             level,
             plain_every,
+            boxed,
             &mut tally,
         );
         eprintln!(
