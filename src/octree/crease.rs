@@ -181,11 +181,12 @@ pub(super) fn planar_look(
     cells: &[[Interval; 4]],
     verdicts: &mut [Verdict],
     opts: &OctreeOptions,
-    domain: (DVec3, DVec3),
+    sides: &[[(bool, bool); 3]],
     next_is_last: bool,
 ) {
-    for (cell, v) in cells.iter().zip(verdicts.iter_mut()) {
-        if v.empty || !v.defined || v.smooth || v.passed(false) || on_boundary(cell, domain) {
+    for ((cell, v), sides) in cells.iter().zip(verdicts.iter_mut()).zip(sides) {
+        let on_boundary = sides.iter().any(|&(lo, hi)| lo || hi);
+        if v.empty || !v.defined || v.smooth || v.passed(false) || on_boundary {
             continue;
         }
         let own = crate::eval::prune::prune(program, *cell);
@@ -204,11 +205,6 @@ pub(super) fn planar_look(
             v.geometry_ok = true;
         }
     }
-}
-
-/// Whether `cell` touches the boundary of the box `domain`.
-fn on_boundary(cell: &[Interval; 4], (lo, hi): (DVec3, DVec3)) -> bool {
-    (0..3).any(|k| cell[k].lo <= lo[k] || cell[k].hi >= hi[k])
 }
 
 /// The affine form `[a, b, c, d]` (`a·x + b·y + c·z + d`) of each value of

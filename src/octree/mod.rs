@@ -359,7 +359,8 @@ fn chord_within<E: Evaluator + ?Sized>(
 }
 
 /// The sides of Ω a node's cell lies on, per axis: on the low face, on
-/// the high face.
+/// the high face (from its integer position, so exactly the cells whose
+/// computed box reaches ∂Ω).
 fn sides(node: &Node) -> [(bool, bool); 3] {
     let last = (1u32 << node.level) - 1;
     node.ijk.map(|i| (i == 0, i == last))
@@ -1112,14 +1113,13 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
                     // when the tape has no pruned one.
                     let program = tape.program.as_ref().map(|r| &r.0).or_else(|| e.program());
                     if let (Some(program), Some(_), false) = (program, self.tau, last) {
-                        let domain = (tree.lo, tree.lo + tree.size);
                         let next_is_last = level + 1 == self.max_level;
                         crease::planar_look(
                             program,
                             &cells[start..end],
                             &mut v,
                             opts,
-                            domain,
+                            on,
                             next_is_last,
                         );
                     }
