@@ -55,7 +55,10 @@ pub(crate) fn normals_at<E: Evaluator + ?Sized>(f: &E, t: f64, pts: &[DVec3]) ->
 /// grows across the surface at `pts[i]`, such as the sign change a root
 /// was bracketed on), the normal is replaced by the one-sided gradient
 /// just outside `pts[i]` along `outward[i]` — or just inside — that
-/// agrees with it; it stays as it was when neither does. `outward` may be
+/// agrees with it; it stays as it was when neither does. So is a zero
+/// normal (a singular point of f, where `x y = 0`'s planes cross: there
+/// the gradient vanishes, and just off the point it is one sheet's or
+/// the bisector's). `outward` may be
 /// shorter than `pts` (the points past it keep their normals).
 pub(crate) fn orient_at_kinks<E: Evaluator + ?Sized>(
     f: &E,
@@ -65,7 +68,7 @@ pub(crate) fn orient_at_kinks<E: Evaluator + ?Sized>(
     outward: &[DVec3],
 ) {
     let flipped: Vec<usize> = (0..outward.len())
-        .filter(|&i| normals[i].dot(outward[i]) < 0.0)
+        .filter(|&i| normals[i].dot(outward[i]) < 0.0 || normals[i] == DVec3::ZERO)
         .collect();
     if flipped.is_empty() {
         return;

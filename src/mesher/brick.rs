@@ -39,6 +39,7 @@
 
 use std::time::Instant;
 
+use glam::DVec3;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 
@@ -49,7 +50,7 @@ use crate::dual;
 use crate::eval::Evaluator;
 use crate::geometry::Bounds;
 use crate::mesh::order::{permute, retain};
-use crate::mesh::origin::{self, Origins};
+use crate::mesh::origin::{self, Origins, Sides};
 use crate::mesh::sink::Sink;
 use crate::mesh::{Mesh, topology};
 use crate::octree::{
@@ -191,8 +192,15 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
     let (mut feature, crease_cells) = if opts.creases {
         let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
         let n0 = mesh.positions.len();
-        let c = crease::sharpen(&mut mesh, &cell_of, &bounds, &field, t);
-        name_crease_points(&mut origins, brick, n0, mesh.positions.len());
+        let c = crease::sharpen(
+            &mut mesh,
+            &cell_of,
+            &bounds,
+            [domain.lo.into(), domain.hi.into()],
+            &field,
+            t,
+        );
+        name_crease_points(&mut origins, brick, &mesh.positions[n0..], domain, n0);
         (c.feature, c.cells)
     } else {
         (vec![false; mesh.positions.len()], 0)
@@ -355,13 +363,31 @@ pub fn seam(mesh: &Mesh, origins: &Origins) -> Vec<bool> {
     on
 }
 
-/// Ids for the feature points `n0..n` that [`crease::sharpen`] added: they
-/// lie inside the brick's cells, so the brick and their number name them.
-fn name_crease_points(origins: &mut Origins, brick: Brick, n0: usize, n: usize) {
-    for k in n0..n {
-        let id = origin::mix(origin::CREASE, u128::from(brick.index()), k as u128);
+/// Ids for the feature points `added`, numbered from `n0`, that
+/// [`crease::sharpen`] added: they lie inside the brick's cells, so the
+/// brick and their number name them. One where a crease leaves Ω lies on
+/// that face of Ω.
+fn name_crease_points(
+    origins: &mut Origins,
+    brick: Brick,
+    added: &[DVec3],
+    domain: Bounds,
+    n0: usize,
+) {
+    for (k, p) in added.iter().enumerate() {
+        let id = origin::mix(origin::CREASE, u128::from(brick.index()), (n0 + k) as u128);
         origins.ids.push(id);
-        origins.sides.push(0);
+        let on = |axis: usize, bit: usize| {
+            let w = if bit == 0 {
+                domain.lo[axis]
+            } else {
+                domain.hi[axis]
+            };
+            Sides::from(p[axis] == w) << (2 * axis + bit)
+        };
+        origins
+            .sides
+            .push((0..3).map(|axis| on(axis, 0) | on(axis, 1)).sum());
     }
 }
 

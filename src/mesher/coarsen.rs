@@ -413,7 +413,9 @@ impl Coarsener {
             .zip(&self.values)
             .all(|(&(_, tol, side), &(v, g))| {
                 let g = DVec3::from_array(g);
-                v.abs() / g.length() <= tol && g.dot(side) > 0.0
+                // A singular point of f (where `x y = 0`'s planes cross)
+                // has no gradient to measure by, and is on the surface.
+                (v == 0.0 && g == DVec3::ZERO) || (v.abs() / g.length() <= tol && g.dot(side) > 0.0)
             })
     }
 

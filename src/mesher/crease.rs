@@ -11,7 +11,10 @@
 //!
 //! # Contract
 //!
-//! A dual cell is sharpened when its patch is one disk whose vertices are
+//! Each sheet of a dual cell's patch (a component: where two sheets cross
+//! or touch, as `x y = 0`'s along its axis, a cell holds one piece of
+//! each, and each gets its own point on the line) is sharpened when it is
+//! one disk whose vertices are
 //! all cell-edge vertices (no MC33 interior vertex), the surface normals at
 //! those vertices fall into two or three clusters more than [`SPLIT_DEG`]
 //! degrees apart, the gap at least `GAP_RATIO` times the largest angle
@@ -37,6 +40,13 @@
 //!    flips below; a candidate that fails is dropped and the others are
 //!    checked again without it.
 //!
+//! Where the crease leaves Ω through the sheet (one boundary edge of the
+//! patch lies on a face of Ω, its ends on either side of the crease), the
+//! feature point is where the crease line meets that face, moved onto
+//! `f = 0` within it, if that lies in the cell's box and between the
+//! edge's ends; the edge gets no fan triangle (the point splits it), so the
+//! crease ends on ∂Ω instead of a chamfer across the corner there.
+//!
 //! A cell whose normals pass the test but whose feature point falls
 //! outside its box (the crease runs just past one of its faces) is merged
 //! into the fan of the neighbouring feature point that shares exactly one
@@ -54,7 +64,8 @@
 //! distance `|f|/‖∇f‖` at the two centroids drops.
 //!
 //! Hence the vertex set only grows, by feature points on the surface; a
-//! patch is replaced by a disk with the same boundary and orientation, and
+//! patch is replaced by a disk with the same boundary (but for an edge on
+//! ∂Ω split where the crease leaves Ω) and orientation, and
 //! a flip re-triangulates a quadrilateral: components, Euler
 //! characteristic, genus, closedness and orientation are unchanged. The
 //! returned flags mark the feature points, which smoothing keeps in place
@@ -62,26 +73,25 @@
 //!
 //! # Limits
 //!
-//! Cells whose patch has several components or an MC33 tunnel are left as
-//! they are, and so are creases that need more than one feature point in
+//! Sheets with an MC33 tunnel are left as they are, and so are creases
+//! that need more than one feature point in
 //! a cell (two creases through one cell), and grazed cells with no
 //! neighbouring feature point to merge into (a corner whose point lies
 //! outside a small cell often is one). A fan is tested against its own
 //! cell's surface normals and bounding box, not against other cells'
 //! triangles (no stage tests for self-intersection). The normals at
-//! feature points are the gradient there (one side's, where f has a kink),
-//! as for every vertex.
-
-use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
-use std::ops::Range;
+//! feature points are the gradient there (one side's, where f has a kink;
+//! just off the point along the patch's normals where the gradient
+//! vanishes, at a singular point), as for every vertex.
 
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
 use crate::eval::Evaluator;
 use crate::eval::sample::{grads_at, orient_at_kinks};
 use crate::mesh::Mesh;
-use crate::roots::project;
+use crate::roots::{line_zero, project};
 
 /// Normals of one cell marking a crease: they fall into two or three
 /// clusters at least this many degrees apart ...
@@ -119,16 +129,29 @@ pub struct Creases {
 struct Candidate {
     /// The triangles replaced: the cell's, and those of a grazed
     /// neighbour merged into its fan.
-    tris: Vec<Range<usize>>,
+    tris: Vec<Vec<usize>>,
     boundary: Vec<(u32, u32)>,
     point: DVec3,
     /// The cell's own boundary, when a grazed neighbour was merged in
     /// (restored if the merged fan fails its checks).
     unmerged: Option<Vec<(u32, u32)>>,
+    /// The boundary edge on ∂Ω the point splits, where the crease leaves
+    /// Ω ([`exit`]): it gets no fan triangle.
+    exit: Option<(u32, u32)>,
+}
+
+impl Candidate {
+    /// The boundary edges that get a fan triangle.
+    fn fanned(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        self.boundary
+            .iter()
+            .copied()
+            .filter(|&e| Some(e) != self.exit)
+    }
 }
 
 /// A grazed cell: its triangles and its boundary cycle.
-type Grazed = (Range<usize>, Vec<(u32, u32)>);
+type Grazed = (Vec<usize>, Vec<(u32, u32)>);
 
 /// What the test of one cell found.
 enum Cell {
@@ -164,6 +187,7 @@ pub fn sharpen<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     cell_of: &[u32],
     bounds: &(dyn Fn(u32) -> [DVec3; 2] + Sync),
+    domain: [DVec3; 2],
     f: &E,
     t: f64,
 ) -> Creases {
@@ -184,11 +208,16 @@ pub fn sharpen<E: Evaluator + ?Sized>(
             start = i;
         }
     }
+    // Each sheet of a cell's patch on its own: where sheets cross or
+    // touch (`x y = 0` along its axis), each one's crease point.
+    let m: &Mesh = mesh;
     let cells: Vec<Cell> = runs
         .into_par_iter()
-        .filter_map(|tris| {
+        .flat_map_iter(|tris| {
             let cell = cell_of[tris.start];
-            candidate(mesh, tris, &|| bounds(cell), f, t)
+            sheets(&m.triangles, tris)
+                .into_iter()
+                .filter_map(move |sheet| candidate(m, sheet, [&|| bounds(cell), &|| domain], f, t))
         })
         .collect();
     let (mut candidates, grazed): (Vec<Candidate>, Vec<Grazed>) = {
@@ -223,7 +252,7 @@ pub fn sharpen<E: Evaluator + ?Sized>(
             .filter(|&k| alive[k])
             .filter(|&k| {
                 let c = &candidates[k];
-                !c.boundary.iter().all(|&(a, b)| {
+                !c.fanned().all(|(a, b)| {
                     let alone = faces(mesh, [a, b], [pos(a), pos(b), c.point]);
                     match owner.get(&(b, a)) {
                         Some(&d) if d != k && alive[d] => {
@@ -275,10 +304,10 @@ pub fn sharpen<E: Evaluator + ?Sized>(
         mesh.ambiguous.push(ambiguous);
         mesh.normals.push(DVec3::ZERO);
         out.feature.push(true);
-        for r in c.tris.iter().cloned().flatten() {
+        for &r in c.tris.iter().flatten() {
             replaced[r] = true;
         }
-        fans.extend(c.boundary.iter().map(|&(a, b)| [a, b, q]));
+        fans.extend(c.fanned().map(|(a, b)| [a, b, q]));
     }
     out.cells = candidates.len();
     let new_points: Vec<DVec3> = mesh.positions[n0..].to_vec();
@@ -493,16 +522,43 @@ fn crease_gap(normals: &[DVec3]) -> Option<(f64, [usize; 2])> {
     (across > split && across > GAP_RATIO * inside).then_some((across, [far.0, far.1]))
 }
 
-/// The sharpening candidate of one cell's triangles, or `None` (steps 1
+/// The triangles `tris` of one cell grouped into sheets: the components of
+/// the patch, joined through shared vertices (a dual cell's sheets share
+/// none: each of its edges holds one vertex per sheet).
+fn sheets(triangles: &[[u32; 3]], tris: std::ops::Range<usize>) -> Vec<Vec<usize>> {
+    let mut sheets: Vec<(Vec<usize>, Vec<u32>)> = Vec::new();
+    for i in tris {
+        let t = triangles[i];
+        let mut joined = (vec![i], t.to_vec());
+        sheets.retain_mut(|(ts, vs)| {
+            let touches = vs.iter().any(|v| t.contains(v));
+            if touches {
+                joined.0.append(ts);
+                joined.1.append(vs);
+            }
+            !touches
+        });
+        sheets.push(joined);
+    }
+    sheets
+        .into_iter()
+        .map(|(mut ts, _)| {
+            ts.sort_unstable();
+            ts
+        })
+        .collect()
+}
+
+/// The sharpening candidate of one sheet of a cell's triangles, or `None` (steps 1
 /// and 2 of the module doc).
 fn candidate<E: Evaluator + ?Sized>(
     mesh: &Mesh,
-    tris: Range<usize>,
-    bounds: &dyn Fn() -> [DVec3; 2],
+    tris: Vec<usize>,
+    [bounds, domain]: [&dyn Fn() -> [DVec3; 2]; 2],
     f: &E,
     t: f64,
 ) -> Option<Cell> {
-    let patch = &mesh.triangles[tris.clone()];
+    let patch: Vec<[u32; 3]> = tris.iter().map(|&i| mesh.triangles[i]).collect();
     // Most cells are smooth: their normals all lie within half the split
     // angle of the first one (so within the split angle of each other).
     let n0 = mesh.normals[patch[0][0] as usize];
@@ -568,6 +624,22 @@ fn candidate<E: Evaluator + ?Sized>(
     }
     let (x, free) = truncated_solve(a, r);
     let mut p = mean + x;
+    let side = (hi - lo).min_element();
+    let feature = |q: DVec3, exit: Option<(u32, u32)>| {
+        kinks(f, t, q, [pos[far[0]], pos[far[1]]], gap).then_some(Cell::Feature(Candidate {
+            tris: vec![tris.clone()],
+            boundary: cycle.clone(),
+            point: q,
+            unmerged: None,
+            exit,
+        }))
+    };
+    if let ([dir], true) = (free.as_slice(), p.is_finite()) {
+        let box_ = [lo, hi];
+        if let Some((edge, q)) = exit(mesh, &cycle, (p, *dir), [box_, domain()], f, t) {
+            return feature(q, Some(edge));
+        }
+    }
     let inside = |x: DVec3| x.cmpge(lo).all() && x.cmple(hi).all();
     // Along a crease (one free direction) the point may slide along it
     // into the box.
@@ -580,34 +652,81 @@ fn candidate<E: Evaluator + ?Sized>(
     if !p.is_finite() || !inside(p) {
         return grazed();
     }
-    let side = (hi - lo).min_element();
     let q = project(f, t, p, 0.1 * side)?;
     if !inside(q) || q.distance(p) > 0.1 * side {
         return None;
     }
-    // A kink, not a bend: near the feature point, towards the two
-    // vertices whose normals differ most, the gradient still turns by at
-    // least half the normals' gap (on a smooth surface it turns by a
-    // fraction NEAR of the patch's whole turn).
-    let [i, j] = far;
-    let towards = |v: DVec3| {
+    feature(q, None)
+}
+
+/// A kink, not a bend, at the feature point `q`: near it, towards the two
+/// patch vertices `towards` whose normals differ most, the gradient still
+/// turns by at least half the normals' `gap` (on a smooth surface it turns
+/// by a fraction [`NEAR`] of the patch's whole turn).
+fn kinks<E: Evaluator + ?Sized>(f: &E, t: f64, q: DVec3, towards: [DVec3; 2], gap: f64) -> bool {
+    let [gi, gj] = towards.map(|v| {
         let x = q + (v - q) * NEAR;
         let (_, g) = f.point_grad([x.x, x.y, x.z, t]);
         DVec3::from_array(g).normalize_or_zero()
+    });
+    gi.length_squared() >= 0.5
+        && gj.length_squared() >= 0.5
+        && gi.dot(gj).clamp(-1.0, 1.0).acos() >= 0.5 * gap
+}
+
+/// Where the crease line `(p, dir)` (a point and its direction) leaves Ω
+/// through the patch `cycle`: the one cycle edge `a → b` on a face of Ω
+/// (`[cell, domain]`: the cell's box and Ω's) whose ends' normals lie on
+/// either side of the crease, and the point where the line meets that
+/// face, moved onto `f = 0` within the face, if it lies in the cell's box
+/// and between `a` and `b`. The crease then ends on ∂Ω (without it, the
+/// fan would end a cell short of it, and a chamfer would join `a` and
+/// `b`); `None` where no edge, or more than one, is such an edge, or the
+/// crease runs along the face.
+fn exit<E: Evaluator + ?Sized>(
+    mesh: &Mesh,
+    cycle: &[(u32, u32)],
+    (p, dir): (DVec3, DVec3),
+    [[lo, hi], domain]: [[DVec3; 2]; 2],
+    f: &E,
+    t: f64,
+) -> Option<((u32, u32), DVec3)> {
+    let pos = |v: u32| mesh.positions[v as usize];
+    let cos_split = SPLIT_DEG.to_radians().cos();
+    let face = |a: DVec3, b: DVec3| {
+        (0..3)
+            .flat_map(|k| domain.map(|w| (k, w[k])))
+            .find(|&(k, w)| a[k] == w && b[k] == w)
     };
-    let (gi, gj) = (towards(pos[i]), towards(pos[j]));
-    if gi.length_squared() < 0.5
-        || gj.length_squared() < 0.5
-        || gi.dot(gj).clamp(-1.0, 1.0).acos() < 0.5 * gap
-    {
+    let mut across = cycle.iter().filter_map(|&(a, b)| {
+        let split = mesh.normals[a as usize].dot(mesh.normals[b as usize]) < cos_split;
+        face(pos(a), pos(b))
+            .filter(|_| split)
+            .map(|kw| ((a, b), kw))
+    });
+    let (((a, b), (k, w)), None) = (across.next()?, across.next()) else {
+        return None;
+    };
+    if dir[k].abs() < 0.1 {
         return None;
     }
-    Some(Cell::Feature(Candidate {
-        tris: vec![tris],
-        boundary: cycle,
-        point: q,
-        unmerged: None,
-    }))
+    let mut e = p + dir * ((w - p[k]) / dir[k]);
+    e[k] = w;
+    let side = (hi - lo).min_element();
+    let (v, g) = f.point_grad([e.x, e.y, e.z, t]);
+    let q = if v == 0.0 {
+        e
+    } else {
+        let mut along = DVec3::from_array(g);
+        along[k] = 0.0;
+        line_zero(f, t, e, along, 0.1 * side)?
+    };
+    // Between the edge's ends: within the slab the edge spans, and no
+    // farther off the edge than its length (the chamfer it is).
+    let (pa, pb) = (pos(a), pos(b));
+    let s = (q - pa).dot(pb - pa) / pa.distance_squared(pb);
+    let between = s > 0.0 && s < 1.0 && (pa + (pb - pa) * s).distance(q) <= pa.distance(pb);
+    (q.cmpge(lo).all() && q.cmple(hi).all() && between).then_some(((a, b), q))
 }
 
 /// Merges each grazed cell into the fan of a neighbouring candidate that

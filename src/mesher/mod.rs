@@ -266,7 +266,14 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     cancel.check()?;
     let mut creases = if opts.creases {
         let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
-        crease::sharpen(&mut mesh, &cell_of, &bounds, &field, t)
+        crease::sharpen(
+            &mut mesh,
+            &cell_of,
+            &bounds,
+            [domain.lo.into(), domain.hi.into()],
+            &field,
+            t,
+        )
     } else {
         crease::Creases::default()
     };

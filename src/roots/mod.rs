@@ -404,8 +404,14 @@ pub fn line_zero<E: Evaluator + ?Sized>(
 
 /// `p` moved onto `f(·, t) = 0` along its gradient line, or `None` when no
 /// zero lies within `max_dist` of `p` along that line.
+/// A point where `f` is 0 is its own projection, even where the gradient
+/// vanishes there (a singular point: where `x y = 0`'s planes cross).
 pub fn project<E: Evaluator + ?Sized>(f: &E, t: f64, p: DVec3, max_dist: f64) -> Option<DVec3> {
-    project_along(f, t, p, max_dist).map(|(q, _)| q)
+    let (fp, g) = f.point_grad(at(p, t));
+    if fp == 0.0 {
+        return Some(p);
+    }
+    along_line(f, t, p, max_dist, fp, g).map(|(q, _)| q)
 }
 
 /// [`project`], also returning the gradient of `f` at `p` (the start of
@@ -417,6 +423,18 @@ pub fn project_along<E: Evaluator + ?Sized>(
     max_dist: f64,
 ) -> Option<(DVec3, DVec3)> {
     let (fp, g) = f.point_grad(at(p, t));
+    along_line(f, t, p, max_dist, fp, g)
+}
+
+/// [`project_along`] given `f(p) = fp` and its gradient `g` there.
+fn along_line<E: Evaluator + ?Sized>(
+    f: &E,
+    t: f64,
+    p: DVec3,
+    max_dist: f64,
+    fp: f64,
+    g: [f64; 3],
+) -> Option<(DVec3, DVec3)> {
     let line = match GradientLine::start(p, max_dist, fp, g) {
         Err(done) => return done,
         Ok(line) => line,

@@ -334,3 +334,74 @@ fn an_axis_aligned_box_is_certified_along_its_edges() {
     let certify = run(isoc::octree::TopologyTest::Certify);
     assert!(certify.ambiguous_cells > 100, "{}", certify.ambiguous_cells);
 }
+
+/// Distance to the planes `u = 0` and `w = 0` of the cube's rotation
+/// ([`rotate`]): they cross along an oblique line.
+fn crossing_distance(p: DVec3) -> f64 {
+    let q = rotate(p);
+    q.x.abs().min(q.y.abs())
+}
+
+/// Whether `p` lies on the line where `u = 0` and `w = 0` cross.
+fn on_crossing(p: &DVec3) -> bool {
+    let q = rotate(*p);
+    q.x.abs() < 1e-9 && q.y.abs() < 1e-9
+}
+
+#[test]
+fn crossing_planes_keep_their_crossing_line() {
+    // `u w = 0`: two sheets (the boundaries of the quadrants where
+    // `u w < 0`) touch along the line; each folds there by 90°. A dual
+    // cell on the line may hold two pieces of sheet, and each gets its
+    // own crease point on the line.
+    let s = surface(&CUBE.replace("max(max(abs(u), abs(w)), abs(s)) = 0.5", "u * w"));
+    let (plain, rp) = mesh(&s, 6, false);
+    let (sharp, rs) = mesh(&s, 6, true);
+    for r in [&rp, &rs] {
+        assert!(r.topology.manifold(), "{:?}", r.topology);
+        assert_eq!(r.topology.misoriented_edges, 0);
+    }
+    assert_eq!(rs.topology.components, rp.topology.components);
+    for p in &sharp.positions {
+        assert!(crossing_distance(*p) < 1e-9, "vertex off the planes: {p}");
+    }
+    let (e_plain, e_sharp) = (
+        chord_errors(&plain, crossing_distance),
+        chord_errors(&sharp, crossing_distance),
+    );
+    let (p_plain, p_sharp) = (quantile(&e_plain, 0.99), quantile(&e_sharp, 0.99));
+    assert!(p_plain > 0.0015, "chamfer error {p_plain}");
+    assert!(p_sharp < 1e-9, "99th percentile {p_sharp} with creases");
+    // The line is about 2.3 long (cells of 1/32): a vertex about every
+    // cell, on each sheet where the two sheets separate there (the dual
+    // grid may join them across the line, where their topology is not
+    // guaranteed).
+    let on = sharp.positions.iter().filter(|p| on_crossing(p)).count();
+    assert!(on >= 60, "{on} vertices on the line");
+    assert!(!plain.positions.iter().any(on_crossing));
+}
+
+#[test]
+fn a_crease_meeting_the_domain_ends_on_its_face() {
+    // `x y = 0` in [-1, 1]³: the crossing line leaves Ω through z = ±1.
+    // Each sheet's crease ends there on a vertex, rather than a cell short
+    // of it with a chamfer across the corner.
+    let s = surface("domain [-1, 1]^3; surface x * y;");
+    let (sharp, rs) = mesh(&s, 5, true);
+    assert!(rs.topology.manifold(), "{:?}", rs.topology);
+    let distance = |p: DVec3| p.x.abs().min(p.y.abs());
+    let errors = chord_errors(&sharp, distance);
+    assert!(
+        errors.last().is_some_and(|&e| e < 1e-12),
+        "worst centroid {:?} off the planes",
+        errors.last()
+    );
+    for z in [-1.0, 1.0] {
+        let ends = sharp
+            .positions
+            .iter()
+            .filter(|p| **p == DVec3::new(0.0, 0.0, z))
+            .count();
+        assert_eq!(ends, 2, "vertices at (0, 0, {z})");
+    }
+}
