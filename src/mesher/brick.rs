@@ -192,14 +192,7 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
     let (mut feature, crease_cells) = if opts.creases {
         let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
         let n0 = mesh.positions.len();
-        let c = crease::sharpen(
-            &mut mesh,
-            &cell_of,
-            &bounds,
-            [domain.lo.into(), domain.hi.into()],
-            &field,
-            t,
-        );
+        let c = crease::sharpen(&mut mesh, &cell_of, &bounds, &domain, &field, t);
         name_crease_points(&mut origins, brick, &mesh.positions[n0..], domain, n0);
         (c.feature, c.cells)
     } else {

@@ -90,6 +90,7 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
 use crate::eval::Evaluator;
 use crate::eval::sample::{grads_at, orient_at_kinks};
+use crate::geometry::Bounds;
 use crate::mesh::Mesh;
 use crate::roots::{line_zero, project};
 
@@ -187,7 +188,7 @@ pub fn sharpen<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     cell_of: &[u32],
     bounds: &(dyn Fn(u32) -> [DVec3; 2] + Sync),
-    domain: [DVec3; 2],
+    domain: &Bounds,
     f: &E,
     t: f64,
 ) -> Creases {
@@ -217,7 +218,7 @@ pub fn sharpen<E: Evaluator + ?Sized>(
             let cell = cell_of[tris.start];
             sheets(&m.triangles, tris)
                 .into_iter()
-                .filter_map(move |sheet| candidate(m, sheet, [&|| bounds(cell), &|| domain], f, t))
+                .filter_map(move |sheet| candidate(m, sheet, &|| bounds(cell), domain, f, t))
         })
         .collect();
     let (mut candidates, grazed): (Vec<Candidate>, Vec<Grazed>) = {
@@ -554,7 +555,8 @@ fn sheets(triangles: &[[u32; 3]], tris: std::ops::Range<usize>) -> Vec<Vec<usize
 fn candidate<E: Evaluator + ?Sized>(
     mesh: &Mesh,
     tris: Vec<usize>,
-    [bounds, domain]: [&dyn Fn() -> [DVec3; 2]; 2],
+    bounds: &dyn Fn() -> [DVec3; 2],
+    domain: &Bounds,
     f: &E,
     t: f64,
 ) -> Option<Cell> {
@@ -634,11 +636,10 @@ fn candidate<E: Evaluator + ?Sized>(
             exit,
         }))
     };
-    if let ([dir], true) = (free.as_slice(), p.is_finite()) {
-        let box_ = [lo, hi];
-        if let Some((edge, q)) = exit(mesh, &cycle, (p, *dir), [box_, domain()], f, t) {
-            return feature(q, Some(edge));
-        }
+    if let ([dir], true) = (free.as_slice(), p.is_finite())
+        && let Some((edge, q)) = exit(mesh, &cycle, (p, *dir), ([lo, hi], domain), f, t)
+    {
+        return feature(q, Some(edge));
     }
     let inside = |x: DVec3| x.cmpge(lo).all() && x.cmple(hi).all();
     // Along a crease (one free direction) the point may slide along it
@@ -676,7 +677,7 @@ fn kinks<E: Evaluator + ?Sized>(f: &E, t: f64, q: DVec3, towards: [DVec3; 2], ga
 
 /// Where the crease line `(p, dir)` (a point and its direction) leaves Ω
 /// through the patch `cycle`: the one cycle edge `a → b` on a face of Ω
-/// (`[cell, domain]`: the cell's box and Ω's) whose ends' normals lie on
+/// (`(cell, domain)`: the cell's box and Ω) whose ends' normals lie on
 /// either side of the crease, and the point where the line meets that
 /// face, moved onto `f = 0` within the face, if it lies in the cell's box
 /// and between `a` and `b`. The crease then ends on ∂Ω (without it, the
@@ -687,7 +688,7 @@ fn exit<E: Evaluator + ?Sized>(
     mesh: &Mesh,
     cycle: &[(u32, u32)],
     (p, dir): (DVec3, DVec3),
-    [[lo, hi], domain]: [[DVec3; 2]; 2],
+    ([lo, hi], domain): ([DVec3; 2], &Bounds),
     f: &E,
     t: f64,
 ) -> Option<((u32, u32), DVec3)> {
@@ -695,7 +696,7 @@ fn exit<E: Evaluator + ?Sized>(
     let cos_split = SPLIT_DEG.to_radians().cos();
     let face = |a: DVec3, b: DVec3| {
         (0..3)
-            .flat_map(|k| domain.map(|w| (k, w[k])))
+            .flat_map(|k| [(k, domain.lo[k]), (k, domain.hi[k])])
             .find(|&(k, w)| a[k] == w && b[k] == w)
     };
     let mut across = cycle.iter().filter_map(|&(a, b)| {

@@ -266,14 +266,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     cancel.check()?;
     let mut creases = if opts.creases {
         let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
-        crease::sharpen(
-            &mut mesh,
-            &cell_of,
-            &bounds,
-            [domain.lo.into(), domain.hi.into()],
-            &field,
-            t,
-        )
+        crease::sharpen(&mut mesh, &cell_of, &bounds, &domain, &field, t)
     } else {
         crease::Creases::default()
     };

@@ -404,6 +404,7 @@ pub fn line_zero<E: Evaluator + ?Sized>(
 
 /// `p` moved onto `f(·, t) = 0` along its gradient line, or `None` when no
 /// zero lies within `max_dist` of `p` along that line.
+///
 /// A point where `f` is 0 is its own projection, even where the gradient
 /// vanishes there (a singular point: where `x y = 0`'s planes cross).
 pub fn project<E: Evaluator + ?Sized>(f: &E, t: f64, p: DVec3, max_dist: f64) -> Option<DVec3> {
