@@ -23,4 +23,17 @@ impl Bounds {
             hi: self.hi[k],
         })
     }
+
+    /// The faces of the box the point `p` lies on, exactly (no tolerance:
+    /// the mesher puts a point on a face by giving it the face's
+    /// coordinate): two bits per axis `k`, bit `2k` for the low face and
+    /// bit `2k + 1` for the high one (as [`crate::mesh::origin::Sides`]).
+    pub fn faces(&self, p: [f64; 3]) -> u8 {
+        (0..3)
+            .map(|k| {
+                u8::from(p[k] == self.lo[k]) << (2 * k)
+                    | u8::from(p[k] == self.hi[k]) << (2 * k + 1)
+            })
+            .sum()
+    }
 }

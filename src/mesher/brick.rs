@@ -50,7 +50,7 @@ use crate::dual;
 use crate::eval::Evaluator;
 use crate::geometry::Bounds;
 use crate::mesh::order::{permute, retain};
-use crate::mesh::origin::{self, Origins, Sides};
+use crate::mesh::origin::{self, Origins};
 use crate::mesh::sink::Sink;
 use crate::mesh::{Mesh, topology};
 use crate::octree::{
@@ -216,6 +216,7 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
         let marks = coarsen::Marks {
             pinned: &on_seam,
             crease: &feature,
+            domain: Some(domain),
         };
         let kept = coarsen::coarsen(&mut mesh, marks, &field, t, tau, cancel)?;
         retain(&mut feature, &kept);
@@ -370,17 +371,7 @@ fn name_crease_points(
     for (k, p) in added.iter().enumerate() {
         let id = origin::mix(origin::CREASE, u128::from(brick.index()), (n0 + k) as u128);
         origins.ids.push(id);
-        let on = |axis: usize, bit: usize| {
-            let w = if bit == 0 {
-                domain.lo[axis]
-            } else {
-                domain.hi[axis]
-            };
-            Sides::from(p[axis] == w) << (2 * axis + bit)
-        };
-        origins
-            .sides
-            .push((0..3).map(|axis| on(axis, 0) | on(axis, 1)).sum());
+        origins.sides.push(domain.faces(p.to_array()));
     }
 }
 

@@ -13,14 +13,20 @@
 //!
 //! The input is an oriented mesh whose vertices lie on `f = 0`; its
 //! [`Marks`] flag vertices that must stay (a brick's seam) and the crease
-//! points (their normal is one side's). A
+//! points (their normal is one side's), and give Ω. A
 //! collapse removes a vertex `r` into a neighbour `k` (a half-edge
 //! collapse: `k` keeps its position, so every vertex stays on the
 //! surface, and no new point is made). It is made only when
 //!
-//! - `r` is not pinned, its star is a closed disk (not on the domain's
-//!   boundary, not at a non-manifold vertex), and its normal is a unit
-//!   vector;
+//! - `r` is not pinned, its star is a closed disk or, on the mesh's
+//!   boundary where Ω cuts the surface, one open fan (never at a
+//!   non-manifold vertex), and its normal is a unit vector;
+//! - a boundary vertex goes only along the boundary, within one face of
+//!   Ω: it lies on exactly one face (not on an edge of Ω), so do its two
+//!   boundary neighbours `a` and `b`, `k` is one of them, and `r` lies
+//!   within the tolerance of the new boundary edge `a–b` (as a crease
+//!   point of its crease edge, below). The boundary stays on ∂Ω, and a
+//!   straight one (a plane cut by a face) may keep only its ends;
 //! - a crease point goes only along its crease: it has exactly two sharp
 //!   edges (their triangles' normals more than [`SPLIT_DEG`] apart), both
 //!   to crease points `a` and `b`, `k` is one of them, and `r` lies within
@@ -84,6 +90,7 @@ use super::planar::{self, FLAT, on_tangent_plane};
 use super::smooth;
 use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
+use crate::geometry::Bounds;
 use crate::mesh::Mesh;
 use crate::mesh::dynmesh::DynMesh;
 use crate::mesh::order::retain;
@@ -147,6 +154,10 @@ pub struct Marks<'a> {
     /// Crease points ([`super::crease`]): removed only along their crease,
     /// never moved by the smoothing between rounds.
     pub crease: &'a [bool],
+    /// Ω, whose faces cut the surface: a vertex of the mesh's boundary on
+    /// one face of it is removed only along that boundary
+    /// ([`Kind::Boundary`]). `None`: every boundary vertex stays.
+    pub domain: Option<Bounds>,
 }
 
 /// Removes vertices of `mesh` by edge collapses while the chord tolerance
@@ -180,6 +191,7 @@ pub fn coarsen<E: Evaluator + ?Sized>(
         let marks = Marks {
             pinned: &pinned,
             crease: &crease,
+            domain: marks.domain,
         };
         let (now, sliver) = coarsen_round(mesh, &marks, visit.as_deref(), f, t, tau, cancel)?;
         let mut live = kept.iter_mut().filter(|k| **k);
@@ -249,6 +261,12 @@ struct Coarsener {
     fixed: Vec<bool>,
     /// Crease points: removed only along their crease ([`Kind::Crease`]).
     crease: Vec<bool>,
+    /// Ω ([`Marks::domain`]).
+    domain: Option<Bounds>,
+    /// Vertices on the mesh's boundary that may go along Ω's faces: the
+    /// planar retriangulation holds them (its regions' inner vertices
+    /// have closed stars), the collapses move them along the boundary.
+    open: Vec<bool>,
     /// Vertices whose neighbourhood changed since their last visit.
     dirty: Vec<bool>,
     /// Vertices whose last visit found a collapse that only the aspect
@@ -269,10 +287,16 @@ impl Coarsener {
         let n = mesh.positions.len();
         let mut ambiguous = mesh.ambiguous.clone();
         ambiguous.resize(n, false);
-        let fixed: Vec<bool> = (0..n as u32)
+        // Per vertex: fixed, and on the mesh's boundary (then removable).
+        let (fixed, open): (Vec<bool>, Vec<bool>) = (0..n as u32)
             .into_par_iter()
-            .map(|v| flag(marks.pinned, v as usize) || !removable(&m, v))
-            .collect();
+            .map(|v| {
+                let fan = fan(&m, v);
+                let fixed =
+                    flag(marks.pinned, v as usize) || !admits(&m, v, fan, marks.domain.as_ref());
+                (fixed, !fixed && matches!(fan, Some(Some(_))))
+            })
+            .unzip();
         let dirty = (0..n)
             .map(|v| !fixed[v] && visit.is_none_or(|visit| flag(visit, v)))
             .collect();
@@ -282,6 +306,8 @@ impl Coarsener {
             ambiguous,
             fixed,
             crease,
+            domain: marks.domain,
+            open,
             dirty,
             sliver: vec![false; n],
             tau,
@@ -293,12 +319,12 @@ impl Coarsener {
     }
 
     /// Retriangulates the flat regions ([`planar`]) the collapses may
-    /// touch: crease points and fixed vertices stay (an ambiguous vertex
-    /// may go, handing its flag on). The refinement leaves alone
+    /// touch: crease points, the boundary's and fixed vertices stay (an
+    /// ambiguous vertex may go, handing its flag on). The refinement leaves alone
     /// triangles of less than a cell's square.
     fn retriangulate_planes<E: Evaluator + ?Sized>(&mut self, f: &E, t: f64) {
         let held: Vec<bool> = (0..self.m.pos.len())
-            .map(|v| self.fixed[v] || self.crease[v])
+            .map(|v| self.fixed[v] || self.crease[v] || self.open[v])
             .collect();
         let side = if self.tau.cell > 0.0 {
             self.tau.cell
@@ -309,7 +335,7 @@ impl Coarsener {
         for v in changed {
             let v = v as usize;
             if !held[v] {
-                self.fixed[v] = !removable(&self.m, v as u32);
+                self.fixed[v] = !removable(&self.m, v as u32, self.domain.as_ref());
                 self.dirty[v] = !self.fixed[v];
             }
         }
@@ -342,7 +368,8 @@ impl Coarsener {
     /// Collapses `r` into the nearest of its [`TARGETS`] nearest
     /// neighbours for which every check holds; returns that neighbour.
     fn try_remove<E: Evaluator + ?Sized>(&mut self, f: &E, t: f64, r: u32) -> Option<u32> {
-        let around = Around::new(&self.m, r, &self.crease);
+        let faces = self.domain.as_ref().filter(|_| self.open[r as usize]);
+        let around = Around::new(&self.m, r, &self.crease, faces);
         let mut sliver = false;
         let k = around
             .targets()
@@ -370,9 +397,9 @@ impl Coarsener {
         let (m, r) = (&self.m, around.r);
         let (pr, pk) = (m.pos[r as usize], m.pos[k as usize]);
         let near = || match around.kind {
-            // Along a crease: `r` within the tolerance of the new crease
-            // edge, at the crease's own bend.
-            Kind::Crease(Some([a, b])) => {
+            // Along a crease or Ω's face: `r` within the tolerance of the
+            // new crease or boundary edge, at the line's own bend.
+            Kind::Crease(Some([a, b])) | Kind::Boundary([a, b]) => {
                 let other = m.pos[if k == a { b } else { a } as usize];
                 let bend = turn(
                     (pr - pk).normalize().to_array(),
@@ -516,10 +543,17 @@ struct Around {
 }
 
 impl Around {
-    fn new(m: &DynMesh, r: u32, crease: &[bool]) -> Around {
+    /// What the checks read around `r`; `domain` is given where `r` lies
+    /// on the mesh's boundary.
+    fn new(m: &DynMesh, r: u32, crease: &[bool], domain: Option<&Bounds>) -> Around {
         let (pr, nr) = (m.pos[r as usize], m.grad[r as usize].to_array());
-        // A closed disk (only removable vertices are visited): each
-        // neighbour follows `r` in exactly one triangle of its star.
+        let boundary = match crease[r as usize] {
+            false => domain.and_then(|d| boundary_neighbours(m, r, d)),
+            true => None,
+        };
+        // A closed disk or an open fan (only removable vertices are
+        // visited): each neighbour follows `r` in exactly one triangle of
+        // its star, but the fan's last one.
         let mut near: Small<(f64, u32)> = m.star[r as usize]
             .iter()
             .map(|&i| {
@@ -529,6 +563,9 @@ impl Around {
                 (pr.distance_squared(m.pos[w as usize]), w)
             })
             .collect();
+        if let Some([_, last]) = boundary {
+            near.push((pr.distance_squared(m.pos[last as usize]), last));
+        }
         near.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         let flat = near.iter().all(|&(_, w)| {
             let g = m.grad[w as usize];
@@ -539,14 +576,14 @@ impl Around {
             (link_kappa(m, r, crease), Kind::Crease(along))
         } else if flat {
             // Not read: a flat star's new edges are not held to a size.
-            (0.0, Kind::Smooth)
+            (0.0, boundary.map_or(Kind::Smooth, Kind::Boundary))
         } else {
             let kappa = near
                 .iter()
                 .filter(|&&(_, w)| !crease[w as usize])
                 .map(|&(d2, w)| turn(nr, m.grad[w as usize].to_array()) / d2.sqrt())
                 .fold(0.0, f64::max);
-            (kappa, Kind::Smooth)
+            (kappa, boundary.map_or(Kind::Smooth, Kind::Boundary))
         };
         Around {
             r,
@@ -564,7 +601,7 @@ impl Around {
     fn targets(&self) -> impl Iterator<Item = u32> + '_ {
         let (along, take) = match self.kind {
             Kind::Smooth => (None, TARGETS),
-            Kind::Crease(Some(ab)) => (Some(ab), 2),
+            Kind::Crease(Some(ab)) | Kind::Boundary(ab) => (Some(ab), 2),
             Kind::Crease(None) => (None, 0),
         };
         self.near
@@ -587,10 +624,13 @@ impl Around {
     }
 
     /// The link condition of collapsing `r` into `k`
-    /// ([`DynMesh::can_collapse_topologically`]), read from `r`'s ring: `r`'s
-    /// star is a closed disk, so the common neighbours of `r` and `k` are
-    /// the ring's vertices other than `k` that are `k`'s neighbours, and
-    /// must be exactly the two opposite the edge.
+    /// ([`DynMesh::can_collapse_topologically`]), read from `r`'s ring: the
+    /// common neighbours of `r` and `k` are the ring's vertices other than
+    /// `k` that are `k`'s neighbours, and must be exactly the vertices
+    /// opposite the edge: two where `r`'s star is a closed disk, one along
+    /// the boundary (the edge's one triangle; `k`'s other boundary
+    /// neighbour is then not `r`'s, so the boundary loop keeps three
+    /// vertices or more).
     fn link_holds(&self, m: &DynMesh, k: u32) -> bool {
         let r = self.r;
         let mut opposite: SmallVec<[u32; 2]> = SmallVec::new();
@@ -600,7 +640,10 @@ impl Around {
                 opposite.extend(tri.into_iter().filter(|&v| v != r && v != k));
             }
         }
-        if opposite.len() != 2 || opposite[0] == opposite[1] {
+        let boundary = matches!(self.kind, Kind::Boundary(_));
+        let single = opposite.len() == 1;
+        if boundary != single || (!boundary && (opposite.len() != 2 || opposite[0] == opposite[1]))
+        {
             return false;
         }
         if !opposite.iter().all(|&v| m.star[v as usize].len() > 3) {
@@ -609,6 +652,11 @@ impl Around {
         let shared = |w: u32| w != k && !opposite.contains(&w) && m.adjacent(k, w);
         if self.near.iter().any(|&(_, w)| shared(w)) {
             return false;
+        }
+        if boundary {
+            // `k`'s fan and `r`'s join along the edge to the opposite
+            // vertex: one open fan.
+            return true;
         }
         // The merged vertex keeps at least 3 neighbours: `k`'s star
         // counts at most its neighbours; where that is not enough, count.
@@ -687,6 +735,10 @@ enum Kind {
     /// exactly two sharp edges and both go to crease points: the only
     /// targets it may be collapsed into (none otherwise: a corner stays).
     Crease(Option<[u32; 2]>),
+    /// On the mesh's boundary, on one face of Ω, with its two neighbours
+    /// along the boundary on that face: collapsed only into one of them,
+    /// so the boundary stays on the face.
+    Boundary([u32; 2]),
 }
 
 /// What [`Coarsener::geometric`] says of a collapse.
@@ -762,14 +814,30 @@ fn link_kappa(m: &DynMesh, r: u32, crease: &[bool]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Whether `v` may be removed at all: its star is one closed disk (the
-/// edges opposite `v` form a single cycle through all its triangles) and
-/// its normal is a unit vector.
-fn removable(m: &DynMesh, v: u32) -> bool {
+/// Whether `v` may be removed at all: its normal is a unit vector, and
+/// its star is one closed disk, or one open fan whose two boundary
+/// neighbours lie with it on one face of `domain` ([`boundary_neighbours`]).
+fn removable(m: &DynMesh, v: u32, domain: Option<&Bounds>) -> bool {
+    admits(m, v, fan(m, v), domain)
+}
+
+/// [`removable`], given `v`'s [`fan`].
+fn admits(m: &DynMesh, v: u32, fan: Option<Option<[u32; 2]>>, domain: Option<&Bounds>) -> bool {
     let g = m.grad[v as usize];
-    if (g.length() - 1.0).abs() > 1e-6 {
-        return false;
-    }
+    (g.length() - 1.0).abs() <= 1e-6
+        && match fan {
+            Some(None) => true,
+            Some(Some(ends)) => domain.is_some_and(|d| on_one_face(m, v, ends, d)),
+            None => false,
+        }
+}
+
+/// How `v`'s star lies around it: `Some(None)`, one closed disk (the
+/// edges opposite `v` form a single cycle through all its triangles);
+/// `Some(Some([a, b]))`, one open fan from the neighbour `a` round to `b`
+/// (`v` lies on the mesh's boundary, between its boundary edges `v–a` and
+/// `v–b`); `None`, anything else (no triangles, a non-manifold vertex).
+fn fan(m: &DynMesh, v: u32) -> Option<Option<[u32; 2]>> {
     // Each triangle, read from `v`, goes from one neighbour to the next.
     let steps: Small<(u32, u32)> = m.star[v as usize]
         .iter()
@@ -779,18 +847,44 @@ fn removable(m: &DynMesh, v: u32) -> bool {
             (t[(s + 1) % 3], t[(s + 2) % 3])
         })
         .collect();
-    let Some(&(first, mut at)) = steps.first() else {
-        return false;
-    };
-    for _ in 1..steps.len() {
-        if at == first {
-            return false;
+    // An open fan starts at the neighbour no triangle goes to.
+    let start = steps
+        .iter()
+        .map(|s| s.0)
+        .find(|&w| !steps.iter().any(|s| s.1 == w));
+    let from = start.or(steps.first().map(|s| s.0))?;
+    let mut at = from;
+    for i in 0..steps.len() {
+        if i > 0 && at == from {
+            return None;
         }
         let mut next = steps.iter().filter(|s| s.0 == at);
         match (next.next(), next.next()) {
             (Some(&(_, to)), None) => at = to,
-            _ => return false,
+            _ => return None,
         }
     }
-    at == first && steps.iter().filter(|s| s.0 == first).count() == 1
+    match start {
+        None => (at == from).then_some(None),
+        // The walk took every triangle once and ends where none starts.
+        Some(a) => (!steps.iter().any(|s| s.0 == at)).then_some(Some([a, at])),
+    }
+}
+
+/// Whether the boundary vertex `v`, between its boundary neighbours
+/// `ends`, lies on exactly one face of `domain` (not on an edge of Ω), and
+/// both neighbours lie on that face too: the boundary edge that removing
+/// `v` makes then lies in the face.
+fn on_one_face(m: &DynMesh, v: u32, ends: [u32; 2], domain: &Bounds) -> bool {
+    let faces = |w: u32| domain.faces(m.pos[w as usize].to_array());
+    let own = faces(v);
+    own.count_ones() == 1 && ends.iter().all(|&w| faces(w) & own != 0)
+}
+
+/// A vertex of the mesh's boundary that may be removed along it: its two
+/// boundary neighbours, when [`removable`] allows it.
+fn boundary_neighbours(m: &DynMesh, v: u32, domain: &Bounds) -> Option<[u32; 2]> {
+    fan(m, v)
+        .flatten()
+        .filter(|&ends| on_one_face(m, v, ends, domain))
 }

@@ -694,10 +694,12 @@ fn exit<E: Evaluator + ?Sized>(
 ) -> Option<((u32, u32), DVec3)> {
     let pos = |v: u32| mesh.positions[v as usize];
     let cos_split = SPLIT_DEG.to_radians().cos();
+    // The first face of Ω both ends lie on: its axis and coordinate.
     let face = |a: DVec3, b: DVec3| {
-        (0..3)
-            .flat_map(|k| [(k, domain.lo[k]), (k, domain.hi[k])])
-            .find(|&(k, w)| a[k] == w && b[k] == w)
+        let shared = domain.faces(a.to_array()) & domain.faces(b.to_array());
+        let bit = shared.trailing_zeros() as usize;
+        let k = bit / 2;
+        (shared != 0).then(|| (k, [domain.lo, domain.hi][bit % 2][k]))
     };
     let mut across = cycle.iter().filter_map(|&(a, b)| {
         let split = mesh.normals[a as usize].dot(mesh.normals[b as usize]) < cos_split;

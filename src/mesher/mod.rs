@@ -285,6 +285,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
         let marks = coarsen::Marks {
             pinned: &[],
             crease: &creases.feature,
+            domain: Some(domain),
         };
         let kept = coarsen::coarsen(&mut mesh, marks, &field, t, tau, cancel)?;
         retain(&mut creases.feature, &kept);

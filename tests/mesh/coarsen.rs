@@ -101,6 +101,7 @@ fn coarsening_keeps_the_mesh_and_the_chord_tolerance() {
         let marks = Marks {
             pinned: &pinned,
             crease: &[],
+            domain: None,
         };
         let kept = coarsened(&mut mesh, marks, &s, tau);
 
@@ -184,6 +185,99 @@ fn coarsening_keeps_a_boundary_where_the_domain_cuts() {
     assert!(t.manifold() && t.open_edges == 0, "{t:?}");
 }
 
+/// Given Ω, a vertex of the boundary on one face of it goes along the
+/// boundary: on a tilted plane (whose flat stars need no measure), fewer
+/// boundary vertices, each one of the input's bit for bit, every
+/// boundary edge in one face of Ω, and every sample on the plane.
+#[test]
+fn boundary_vertices_go_along_the_domain_faces() {
+    let normal = DVec3::new(0.3, 0.5, 1.0);
+    let src = "domain [-1, 1]^3; surface 0.3*x + 0.5*y + z - 0.1;";
+    let (s, input, tau) = extracted(src, 6);
+    let dist = |p: DVec3| (p.dot(normal) - 0.1).abs() / normal.length();
+    let on_boundary = |m: &Mesh| {
+        let mut bits: Vec<[u64; 3]> = edge_uses(m)
+            .into_iter()
+            .filter(|&(_, n)| n == 1)
+            .flat_map(|((a, b), _)| [a, b].map(|v| position_bits_of(m, v as usize)))
+            .collect();
+        bits.sort_unstable();
+        bits.dedup();
+        bits
+    };
+    let mut mesh = input.clone();
+    let marks = Marks {
+        domain: Some(s.domain),
+        ..Marks::default()
+    };
+    coarsened(&mut mesh, marks, &s, tau);
+    let t = analyze_in(&mesh, Some(&s.domain));
+    assert!(t.manifold() && t.open_edges == 0, "{t:?}");
+    let (before, after) = (on_boundary(&input), on_boundary(&mesh));
+    eprintln!("boundary vertices {} → {}", before.len(), after.len());
+    assert!(
+        4 * after.len() <= 3 * before.len(),
+        "{} → {}",
+        before.len(),
+        after.len()
+    );
+    assert!(after.iter().all(|v| before.binary_search(v).is_ok()));
+    for ((a, b), n) in edge_uses(&mesh) {
+        let [pa, pb] = [a, b].map(|v| mesh.positions[v as usize].to_array());
+        assert!(
+            n == 2 || s.domain.faces(pa) & s.domain.faces(pb) != 0,
+            "{pa:?}–{pb:?} used {n}×"
+        );
+    }
+    let (o0, o1) = (
+        over_share(&input, tau, &dist),
+        over_share(&mesh, tau, &dist),
+    );
+    assert!(o1 <= o0 + 1e-3, "{o0} → {o1}");
+}
+
+/// Where the planes of `x y = 0` cross, each sheet has its own points on
+/// the line (no edge of either is sharp there): collapsed along the line,
+/// they leave each sheet's edges covering it from face to face of Ω with
+/// a few vertices, where every cell had one, and every triangle on the
+/// planes.
+#[test]
+fn a_straight_crossing_line_keeps_few_points() {
+    let s = surface("domain [-1, 1]^3; surface x * y;");
+    let opts = MeshOptions {
+        octree: OctreeOptions {
+            max_level: 6,
+            ..OctreeOptions::default()
+        },
+        ..MeshOptions::default()
+    };
+    let (mesh, report) = isoc::mesher::mesh(&s, &opts, &|_| {});
+    assert!(report.topology.manifold(), "{:?}", report.topology);
+    let on_line = |v: u32| {
+        let p = mesh.positions[v as usize];
+        p.x == 0.0 && p.y == 0.0
+    };
+    let points = (0..mesh.positions.len() as u32)
+        .filter(|&v| on_line(v))
+        .count();
+    let covered: f64 = edge_uses(&mesh)
+        .into_keys()
+        .filter(|&(a, b)| on_line(a) && on_line(b))
+        .map(|(a, b)| mesh.positions[a as usize].distance(mesh.positions[b as usize]))
+        .sum();
+    eprintln!("{points} points on the line, its edges {covered} long");
+    assert!(points <= 16, "{points} points on the line");
+    // Two sheets, each from z = -1 to z = 1.
+    assert!((covered - 4.0).abs() < 1e-12, "{covered}");
+    for t in &mesh.triangles {
+        let c = t.map(|v| mesh.positions[v as usize]).iter().sum::<DVec3>() / 3.0;
+        assert!(
+            c.x.abs().min(c.y.abs()) < 1e-12,
+            "centroid {c} off the planes"
+        );
+    }
+}
+
 #[test]
 fn a_cancelled_coarsening_leaves_the_mesh_as_it_was() {
     let (s, input, tau) = extracted(TORUS, 5);
@@ -219,6 +313,7 @@ fn crease_points_are_removed_along_straight_creases_only() {
     let marks = Marks {
         pinned: &[],
         crease: &crease,
+        domain: None,
     };
     let kept = coarsened(&mut mesh, marks, &s, tau);
 

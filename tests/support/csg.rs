@@ -1149,7 +1149,9 @@ const CAP_MARGIN: f64 = 0.03;
 
 /// Points of the mesh (triangles' corners and centroids) spread over
 /// every component of `mesh`: at most `WINDING_POINTS / 2` in all, at
-/// least two a component.
+/// least two a component. A component of few triangles (a plane, cut by
+/// the domain into a few large ones) gives its triangles' edge midpoints
+/// and three inner points as well, so that it is sampled as densely.
 fn winding_seeds(mesh: &Mesh) -> Vec<DVec3> {
     let comp = topology::triangle_components(mesh);
     let ncomp = comp.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
@@ -1158,19 +1160,36 @@ fn winding_seeds(mesh: &Mesh) -> Vec<DVec3> {
         of[c as usize].push(t);
     }
     let per = (WINDING_POINTS / 2 / ncomp.max(1)).max(2);
-    // Four points a triangle (its corners and centroid), so that a mesh
-    // of few large triangles (a plane) is sampled as densely.
-    let point = |t: usize, k: usize| {
+    // Barycentric weights: corners and centroid first (the four a
+    // triangle gives where the component has enough triangles).
+    const WEIGHTS: [[f64; 3]; 10] = [
+        [1.0, 0.0, 0.0],
+        [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.5, 0.5, 0.0],
+        [0.0, 0.5, 0.5],
+        [0.5, 0.0, 0.5],
+        [4.0 / 6.0, 1.0 / 6.0, 1.0 / 6.0],
+        [1.0 / 6.0, 4.0 / 6.0, 1.0 / 6.0],
+        [1.0 / 6.0, 1.0 / 6.0, 4.0 / 6.0],
+    ];
+    let point = |t: usize, w: [f64; 3]| {
         let q = mesh.triangles[t].map(|v| mesh.positions[v as usize]);
-        [q[0], (q[0] + q[1] + q[2]) / 3.0, q[1], q[2]][k]
+        q[0] * w[0] + q[1] * w[1] + q[2] * w[2]
     };
     of.iter()
         .flat_map(|tris| {
-            let n = 4 * tris.len();
+            let each = if 4 * tris.len() >= per {
+                4
+            } else {
+                WEIGHTS.len()
+            };
+            let n = each * tris.len();
             let stride = n.div_ceil(per).max(1);
             (0..n)
                 .step_by(stride)
-                .map(move |i| point(tris[i / 4], i % 4))
+                .map(move |i| point(tris[i / each], WEIGHTS[i % each]))
         })
         .collect()
 }
