@@ -641,9 +641,8 @@ impl Around {
             }
         }
         let boundary = matches!(self.kind, Kind::Boundary(_));
-        let single = opposite.len() == 1;
-        if boundary != single || (!boundary && (opposite.len() != 2 || opposite[0] == opposite[1]))
-        {
+        let want = if boundary { 1 } else { 2 };
+        if opposite.len() != want || opposite[1..].contains(&opposite[0]) {
             return false;
         }
         if !opposite.iter().all(|&v| m.star[v as usize].len() > 3) {
