@@ -60,8 +60,8 @@
 //! chord criterion ([`crate::octree::OctreeOptions::chord`]) decides the
 //! coarse sizes; this pass only corrects the last factor below a level.
 //! The mesher runs it after coarsening and smoothing (`split_after_smoothing`
-//! in [`super`]): its triangles get two smoothing passes held to the
-//! tolerance (`smooth::smooth_within`). Next to a crease
+//! in [`super`]): its triangles get two passes that even their shapes
+//! and sags out, held to the tolerance (`settle::settle`). Next to a crease
 //! the faces keep the coarsened mesh's edges. A crease split needs both
 //! of its edge's triangles, so on a brick's seam (one triangle in each
 //! brick) an edge is not split onto a crease; and it puts one vertex on the

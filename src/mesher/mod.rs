@@ -26,6 +26,8 @@ pub mod crease;
 pub mod flip;
 pub mod planar;
 pub mod report;
+mod sag;
+pub mod settle;
 pub mod smooth;
 pub mod stitch;
 pub mod weld;
@@ -342,10 +344,10 @@ fn mesh_refining<E: Evaluator + ?Sized>(
 /// The chord splits of a coarsened and smoothed mesh (of the mesh as
 /// extracted with `opts.smooth` 0), as the whole run and each brick
 /// ([`brick`], with its vertices' `origins`) make them: the rounds of
-/// [`chord::split_edges_in`]; with smoothing on, two smoothing passes over the
-/// corners of the split triangles (a single split makes two 30-60-90
-/// triangles of an equilateral one) whose flips and moves make no edge
-/// the splits would split ([`smooth::smooth_within`]); one more round
+/// [`chord::split_edges_in`]; with smoothing on, two passes that even out the
+/// shapes (a single split makes two 30-60-90 triangles of an equilateral
+/// one) and the sags, whose flips and moves make no edge the splits would
+/// split ([`settle::settle`]); one more round
 /// (for a brick, numbered after the others); and the coincident vertices
 /// welded. With `opts.creases` (the crease pass ran), an edge across a
 /// crease is split onto it ([`chord`]).
@@ -375,7 +377,6 @@ fn split_after_smoothing<E: Evaluator + ?Sized>(
         Some(o) => brick::seam(mesh, o),
         None => Vec::new(),
     };
-    let old = mesh.positions.len() as u32;
     chord::split_edges_in(
         mesh,
         feature,
@@ -387,24 +388,10 @@ fn split_after_smoothing<E: Evaluator + ?Sized>(
         cancel,
     )?;
     if opts.smooth > 0 {
-        // Only the corners of the split triangles move (and a brick's seam
-        // stays).
+        // A brick's seam stays.
         let mut still = seam(mesh, origins.as_deref());
         still.resize(mesh.positions.len(), false);
-        let mut split = vec![false; mesh.positions.len()];
-        for tri in mesh
-            .triangles
-            .iter()
-            .filter(|t| t.iter().any(|&v| v >= old))
-        {
-            for &v in tri {
-                split[v as usize] = true;
-            }
-        }
-        for (s, split) in still.iter_mut().zip(split) {
-            *s |= !split;
-        }
-        smooth::smooth_within(mesh, f, t, feature, &still, tau, cancel)?;
+        settle::settle(mesh, f, t, feature, &still, tau, cancel)?;
     }
     // The round after smoothing: numbered after the others.
     let round = origins.as_deref_mut().map(|o| (o, chord::ROUNDS as u32));

@@ -31,12 +31,10 @@
 //! mesh's topology and orientation; every vertex stays on the surface (it
 //! moves only to a projected point).
 //!
-//! [`smooth_within`], the passes the mesher runs on the triangles of the
-//! chord splits, also hold every flip's new edge and every moved
-//! vertex's edges to a chord tolerance (their midpoints measured on `f`,
-//! as [`super::chord`] measures them): unheld, its flips and moves
-//! stretched edges that a later round split again (cyclide at level 8:
-//! 8.4k more triangles, 0.62× Fidget's count instead of 0.55×).
+//! The passes the mesher runs after the chord splits, which also even
+//! out the sags and hold the edges to the chord tolerance, are
+//! [`super::settle`]'s; they share this module's safety test, colouring
+//! and relaxation target.
 //!
 //! The moves are Gauss–Seidel by colour class: the vertices are greedily
 //! coloured so that no two neighbours share a colour; the candidates of
@@ -70,7 +68,6 @@ use glam::DVec3;
 use rayon::prelude::*;
 use smallvec::SmallVec;
 
-use super::chord::{beyond, midpoint_tolerance};
 use super::crease::SPLIT_DEG;
 use super::flip::Flips;
 use crate::cancel::{Cancel, Cancelled, uncancelled};
@@ -78,14 +75,13 @@ use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
 use crate::mesh::quality::{aspect, aspect_ratio};
 use crate::mesh::{Mesh, Star};
-use crate::octree::Chord;
 use crate::roots::project_along_batch;
 
 /// Whether moving vertex `v` to `p`, where the surface's normal is `n`,
 /// keeps every incident triangle's orientation and a reasonable share of
 /// its area, and folds no triangle that was not folded: a triangle whose
 /// normal agreed with a corner's unit normal (`v`'s now `n`) still does.
-fn move_is_safe(mesh: &Mesh, star: &Star, v: usize, p: DVec3, n: DVec3) -> bool {
+pub(super) fn move_is_safe(mesh: &Mesh, star: &Star, v: usize, p: DVec3, n: DVec3) -> bool {
     star.of(v).iter().all(|&ti| {
         let t = mesh.triangles[ti as usize];
         let before = mesh.face_normal(t);
@@ -110,7 +106,7 @@ fn move_is_safe(mesh: &Mesh, star: &Star, v: usize, p: DVec3, n: DVec3) -> bool 
 }
 
 /// A vertex whose triangles all have at least this aspect ratio stays.
-const SETTLED: f64 = 0.85;
+pub(super) const SETTLED: f64 = 0.85;
 
 /// Where relaxation would take vertex `v` (before projection), and the
 /// largest distance from `v` to its star's corners (`None`: the vertex
@@ -121,9 +117,22 @@ fn target(mesh: &Mesh, star: &Star, aspects: &[f64], v: usize) -> Option<(DVec3,
     if tris.is_empty() || tris.iter().all(|&ti| aspects[ti as usize] >= SETTLED) {
         return None;
     }
-    // The edge opposite `v` in each triangle of the star (`None`: `v` is
-    // not a corner of one of its triangles, a broken star).
-    let opposite: Option<SmallVec<[(DVec3, DVec3); 12]>> = tris
+    Some(relaxation_target(
+        mesh.positions[v],
+        mesh.normals[v],
+        &opposite(mesh, star, v)?,
+    ))
+}
+
+/// The edge opposite vertex `v` in each triangle of its star, in the
+/// star's order (`None`: `v` is not a corner of one of them, a broken
+/// star).
+pub(super) fn opposite(
+    mesh: &Mesh,
+    star: &Star,
+    v: usize,
+) -> Option<SmallVec<[(DVec3, DVec3); 12]>> {
+    star.of(v)
         .iter()
         .map(|&ti| {
             let tri = mesh.triangles[ti as usize];
@@ -133,12 +142,7 @@ fn target(mesh: &Mesh, star: &Star, aspects: &[f64], v: usize) -> Option<(DVec3,
                 mesh.positions[tri[(s + 2) % 3] as usize],
             ))
         })
-        .collect();
-    Some(relaxation_target(
-        mesh.positions[v],
-        mesh.normals[v],
-        &opposite?,
-    ))
+        .collect()
 }
 
 /// Where relaxation takes a vertex at `p` with unit normal `n` whose star's
@@ -181,13 +185,17 @@ pub(crate) fn relaxation_target(p: DVec3, n: DVec3, opposite: &[(DVec3, DVec3)])
 
 /// A greedy colouring of the vertices (no two joined by an edge share a
 /// colour): the vertices of each colour, in order.
-fn colour_classes(mesh: &Mesh, star: &Star) -> Vec<Vec<u32>> {
+pub(super) fn colour_classes(
+    mesh: &Mesh,
+    star: &Star,
+    active: impl Fn(usize) -> bool,
+) -> Vec<Vec<u32>> {
     let n = mesh.positions.len();
     let mut colour = vec![u32::MAX; n];
     let mut classes: Vec<Vec<u32>> = Vec::new();
     let mut used: Vec<u32> = Vec::new();
     for v in 0..n {
-        if star.of(v).is_empty() {
+        if star.of(v).is_empty() || !active(v) {
             continue;
         }
         // Colours below 64 as a bit set, the rest (rare) in `used`.
@@ -255,38 +263,10 @@ pub fn smooth_part<E: Evaluator + ?Sized>(
     seam: &[bool],
     cancel: &Cancel,
 ) -> Result<usize, Cancelled> {
-    smooth_with(mesh, f, t, passes, keep, seam, None, cancel)
+    smooth_with(mesh, f, t, passes, keep, seam, cancel)
 }
 
-/// Passes of [`smooth_within`]: with one, genus2 at level 7 keeps 0.728
-/// of its triangles shapely (issue 11 wants 0.75), with two 0.779, with
-/// three 0.798 (decocube at level 8: each pass costs about 170 ms of
-/// 1.2 s).
-const HELD_PASSES: usize = 2;
-
-/// [`HELD_PASSES`] passes of [`smooth_part`] in which no flip or move
-/// stretches an edge past the chord tolerance `tau`: a flip is refused, or
-/// a move skipped, when the midpoint of its new edge, or of one of the
-/// moved vertex's edges, would stand farther than `tau` (at the edge's
-/// curvature, first order, as [`super::chord`] measures) off `f = 0`. For
-/// the triangles of chord splits, which the splits left within the
-/// tolerance: relaxing them freely would stretch edges that another round
-/// would split again.
-pub fn smooth_within<E: Evaluator + ?Sized>(
-    mesh: &mut Mesh,
-    f: &E,
-    t: f64,
-    keep: &[bool],
-    still: &[bool],
-    tau: Chord,
-    cancel: &Cancel,
-) -> Result<usize, Cancelled> {
-    smooth_with(mesh, f, t, HELD_PASSES, keep, still, Some(tau), cancel)
-}
-
-/// [`smooth_part`], with moves held within `chord` when given
-/// ([`smooth_within`]).
-#[allow(clippy::too_many_arguments)]
+/// [`smooth_part`].
 fn smooth_with<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     f: &E,
@@ -294,7 +274,6 @@ fn smooth_with<E: Evaluator + ?Sized>(
     passes: usize,
     keep: &[bool],
     seam: &[bool],
-    chord: Option<Chord>,
     cancel: &Cancel,
 ) -> Result<usize, Cancelled> {
     if passes == 0 || mesh.triangles.is_empty() {
@@ -304,26 +283,14 @@ fn smooth_with<E: Evaluator + ?Sized>(
     let mut flips = Flips::new(mesh);
     flips.keep_edges_between(keep);
     flips.keep_apart(seam);
-    let mut pinned = flips.pinned(mesh);
-    // A vertex on a ridge line the crease pass left (a chamfer across a
-    // crease it could not sharpen) would slide across the crease, widening
-    // the chamfer: it stays.
-    let ridges = flips.on_ridge_lines(mesh, SPLIT_DEG.to_radians().cos());
-    for flags in [&ridges[..], keep, seam] {
-        for (p, &k) in pinned.iter_mut().zip(flags) {
-            *p |= k;
-        }
-    }
-    // With a chord tolerance, a flip's new edge is held to it too.
-    let allow = |m: &Mesh, c: u32, d: u32| chord.is_none_or(|tau| edge_within(m, f, t, tau, c, d));
+    let pinned = pinned(&flips, mesh, keep, seam);
+    let allow = |_: &Mesh, _: u32, _: u32| true;
     let mut moved = vec![false; mesh.positions.len()];
     for _ in 0..passes {
         flips.run_where(mesh, &allow);
         let star = Star::new(mesh);
         let mut aspects = flips.aspects().to_vec();
-        let mut moves = 0;
-        for class in colour_classes(mesh, &star) {
-            cancel.check()?;
+        for class in colour_classes(mesh, &star, |_| true) {
             let targets: Vec<(u32, DVec3, f64)> = class
                 .par_iter()
                 .filter(|&&v| !pinned[v as usize])
@@ -332,24 +299,7 @@ fn smooth_with<E: Evaluator + ?Sized>(
                     Some((v, q, 0.5 * reach))
                 })
                 .collect();
-            let candidates: Vec<(u32, DVec3, DVec3)> = targets
-                .par_chunks(PROJECT_CHUNK)
-                .filter(|_| !cancel.is_cancelled())
-                .flat_map_iter(|part| {
-                    let starts: Vec<(DVec3, f64)> = part.iter().map(|&(_, q, d)| (q, d)).collect();
-                    let projected = project_along_batch(f, t, &starts);
-                    part.iter()
-                        .zip(projected)
-                        .filter_map(|(&(v, _, _), r)| r.map(|(p, g)| (v, p, g)))
-                        .collect::<Vec<_>>()
-                })
-                .collect();
-            cancel.check()?;
-            let candidates = match chord {
-                Some(tau) => within_chord(mesh, &star, f, t, tau, candidates),
-                None => candidates,
-            };
-            for (v, p, g) in candidates {
+            for (v, p, g) in projected(f, t, &targets, cancel)? {
                 if move_is_safe(mesh, &star, v as usize, p, g.normalize_or_zero()) {
                     mesh.positions[v as usize] = p;
                     // The tangent plane for the next pass: the normal at
@@ -357,19 +307,70 @@ fn smooth_with<E: Evaluator + ?Sized>(
                     // the projected one's normal line.
                     mesh.normals[v as usize] = g.normalize();
                     moved[v as usize] = true;
-                    moves += 1;
+                    accepted += 1;
                     for &ti in star.of(v as usize) {
                         aspects[ti as usize] = aspect_ratio(mesh, mesh.triangles[ti as usize]);
                     }
                 }
             }
         }
-        accepted += moves;
     }
     flips.run_where(mesh, &allow);
     drop((flips, pinned));
-    // The normals at the final positions of the vertices that moved (the
-    // others' are their positions' already), a slice of vertices at a time.
+    refresh_normals(mesh, f, t, &moved);
+    Ok(accepted)
+}
+
+/// The vertices smoothing keeps where they are: those `flips` pins (on a
+/// boundary, non-manifold or misoriented edge), those on a ridge line the
+/// crease pass left (a chamfer across a crease it could not sharpen would
+/// widen as they slid across it), and those flagged in `keep` or `seam`.
+pub(super) fn pinned(flips: &Flips, mesh: &Mesh, keep: &[bool], seam: &[bool]) -> Vec<bool> {
+    let mut pinned = flips.pinned(mesh);
+    let ridges = flips.on_ridge_lines(mesh, SPLIT_DEG.to_radians().cos());
+    for flags in [&ridges[..], keep, seam] {
+        for (p, &k) in pinned.iter_mut().zip(flags) {
+            *p |= k;
+        }
+    }
+    pinned
+}
+
+/// The `targets` (vertex, target, reach of the projection) projected onto
+/// `f(·, t) = 0` in batches, as (vertex, projected position, gradient
+/// there).
+fn projected<E: Evaluator + ?Sized>(
+    f: &E,
+    t: f64,
+    targets: &[(u32, DVec3, f64)],
+    cancel: &Cancel,
+) -> Result<Vec<(u32, DVec3, DVec3)>, Cancelled> {
+    cancel.check()?;
+    let projected = targets
+        .par_chunks(PROJECT_CHUNK)
+        .filter(|_| !cancel.is_cancelled())
+        .flat_map_iter(|part| {
+            let starts: Vec<(DVec3, f64)> = part.iter().map(|&(_, q, d)| (q, d)).collect();
+            let projected = project_along_batch(f, t, &starts);
+            part.iter()
+                .zip(projected)
+                .filter_map(|(&(v, _, _), r)| r.map(|(p, g)| (v, p, g)))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    cancel.check()?;
+    Ok(projected)
+}
+
+/// The normals at the final positions of the vertices flagged in `moved`
+/// (the others' are their positions' already), a slice of vertices at a
+/// time.
+pub(super) fn refresh_normals<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    f: &E,
+    t: f64,
+    moved: &[bool],
+) {
     let moved: Vec<u32> = (0..moved.len() as u32)
         .filter(|&v| moved[v as usize])
         .collect();
@@ -381,67 +382,6 @@ fn smooth_with<E: Evaluator + ?Sized>(
             }
         }
     }
-    Ok(accepted)
-}
-
-/// Whether the midpoint of the edge `c–d` of `m` stands within `tau` of
-/// `f(·, t) = 0` (as [`super::chord`] measures it; no gradient there
-/// passes).
-fn edge_within<E: Evaluator + ?Sized>(m: &Mesh, f: &E, t: f64, tau: Chord, c: u32, d: u32) -> bool {
-    let end = |v: u32| (m.positions[v as usize], m.normals[v as usize]);
-    let (mid, tol) = midpoint_tolerance(tau, end(c), end(d));
-    let (v, g) = f.point_grad([mid.x, mid.y, mid.z, t]);
-    !beyond(v, DVec3::from_array(g), tol)
-}
-
-/// The `candidates` (vertex, projected position, gradient there) whose
-/// every edge, from the new position, has its midpoint within `tau` of
-/// `f(·, t) = 0` (first order; a midpoint without a gradient passes, as
-/// the chord splits pass it).
-fn within_chord<E: Evaluator + ?Sized>(
-    mesh: &Mesh,
-    star: &Star,
-    f: &E,
-    t: f64,
-    tau: Chord,
-    candidates: Vec<(u32, DVec3, DVec3)>,
-) -> Vec<(u32, DVec3, DVec3)> {
-    let (pos, normals) = (&mesh.positions, &mesh.normals);
-    // Per candidate, its neighbours' midpoints and tolerances.
-    let edges: Vec<Vec<(DVec3, f64)>> = candidates
-        .iter()
-        .map(|&(v, p, g)| {
-            let mut around: SmallVec<[u32; 16]> = star
-                .of(v as usize)
-                .iter()
-                .flat_map(|&ti| mesh.triangles[ti as usize])
-                .filter(|&w| w != v)
-                .collect();
-            around.sort_unstable();
-            around.dedup();
-            let at = (p, g.normalize_or_zero());
-            around
-                .iter()
-                .map(|&w| midpoint_tolerance(tau, at, (pos[w as usize], normals[w as usize])))
-                .collect()
-        })
-        .collect();
-    let mids: Vec<DVec3> = edges.iter().flatten().map(|&(m, _)| m).collect();
-    let mut measured = grads_at(f, t, &mids).into_iter();
-    candidates
-        .into_iter()
-        .zip(&edges)
-        .filter(|(_, edges)| {
-            // Every measurement is consumed, whatever the verdict.
-            let far = edges
-                .iter()
-                .zip(measured.by_ref())
-                .filter(|&(&(_, tol), (v, g))| beyond(v, g, tol))
-                .count();
-            far == 0
-        })
-        .map(|(c, _)| c)
-        .collect()
 }
 
 /// Relaxation targets projected together (one batch of each evaluation;

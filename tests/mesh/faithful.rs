@@ -166,15 +166,15 @@ fn chord_splits_keep_the_mesh_and_bring_midpoints_within_the_tolerance() {
     );
 }
 
-/// The smoothing pass after the chord splits (`smooth_within`) holds its
-/// flips and moves to the tolerance: on a coarse torus split to a tenth of
-/// its worst midpoint distance, no edge stands past the tolerance after it
-/// that did not before, while the same pass unheld (`smooth_part`)
+/// The passes after the chord splits (`settle`) hold their flips and
+/// moves to the tolerance: on a coarse torus split to a tenth of its
+/// worst midpoint distance, no edge stands past the tolerance after them
+/// that did not before, while a smoothing pass unheld (`smooth_part`)
 /// stretches edges past it; both raise the share of shapely triangles the
 /// splits lowered.
 #[test]
 fn the_pass_after_the_splits_stretches_no_edge_past_the_tolerance() {
-    use isoc::mesher::smooth;
+    use isoc::mesher::{settle, smooth};
     let s = surface("domain [-1.5, 1.5]^3; surface (sqrt(x^2 + y^2) - 1)^2 + z^2 - 0.09;");
     let (mut mesh, _) = mesh_at(
         &s,
@@ -220,8 +220,8 @@ fn the_pass_after_the_splits_stretches_no_edge_past_the_tolerance() {
     let before = far(&mesh, tau);
     let good = isoc::mesh::quality::aspect_good;
     let mut held = mesh.clone();
-    let moves = smooth::smooth_within(&mut held, &s, 0.0, &feature, &[], chord, &never)
-        .expect("uncancelled");
+    let moves =
+        settle::settle(&mut held, &s, 0.0, &feature, &[], chord, &never).expect("uncancelled");
     let mut free = mesh.clone();
     smooth::smooth_part(&mut free, &s, 0.0, 1, &feature, &[], &never).expect("uncancelled");
     assert!(moves > 0);
