@@ -56,11 +56,12 @@ use super::flip::Flips;
 use super::sag::Sags;
 use super::smooth::{
     SETTLED, colour_classes, move_is_safe, opposite, pinned, refresh_normals, relaxation_target,
+    worst_aspect,
 };
 use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
 use crate::eval::sample::grads_at;
-use crate::mesh::quality::{aspect, aspect_ratio};
+use crate::mesh::quality::aspect_ratio;
 use crate::mesh::{Mesh, Star};
 use crate::octree::Chord;
 use crate::roots::walk::newton;
@@ -125,7 +126,10 @@ pub fn settle<E: Evaluator + ?Sized>(
                 })
                 .collect();
             for (v, p, n, goal) in candidates(mesh, &star, f, t, tau, &targets) {
-                let worst = star_worst(mesh, &star, v, p);
+                let Some(opposite) = opposite(mesh, &star, v) else {
+                    continue;
+                };
+                let worst = worst_aspect(p, &opposite);
                 let sag = Sags::of(mesh, &star, v, (p, n)).map(|s| s.largest(DVec3::ZERO));
                 if goal.met(worst, sag) && move_is_safe(mesh, &star, v, p, n) {
                     mesh.positions[v] = p;
@@ -203,20 +207,6 @@ impl Goal {
     }
 }
 
-/// The worst aspect ratio of vertex `v`'s star with `v` at `p`.
-fn star_worst(mesh: &Mesh, star: &Star, v: usize, p: DVec3) -> f64 {
-    star.of(v).iter().fold(f64::INFINITY, |w, &ti| {
-        let [a, b, c] = mesh.triangles[ti as usize].map(|i| {
-            if i as usize == v {
-                p
-            } else {
-                mesh.positions[i as usize]
-            }
-        });
-        w.min(aspect(a, b, c))
-    })
-}
-
 /// Where [`settle`] moves vertex `v` (before projection), the largest
 /// distance from `v` to its star's corners, and what the move is for;
 /// `None` when the star is settled (every aspect ratio, read from
@@ -251,12 +241,7 @@ fn target(
     let reach = opposite
         .iter()
         .fold(0.0f64, |r, &(b, c)| r.max(b.distance(p)).max(c.distance(p)));
-    let worst_at = |d: DVec3| {
-        let q = p + d;
-        opposite
-            .iter()
-            .fold(f64::INFINITY, |w, &(b, c)| w.min(aspect(q, b, c)))
-    };
+    let worst_at = |d: DVec3| worst_aspect(p + d, &opposite);
     let sag_at = |d: DVec3| sags.as_ref().map(|s| s.largest(d));
     // The candidates, the lowest sag first (a shape has one); the first
     // that meets the goal is taken.

@@ -145,6 +145,14 @@ pub(super) fn opposite(
         .collect()
 }
 
+/// The worst aspect ratio of a star whose centre is at `q` and whose
+/// triangles are `(q, b, c)` for the edges `(b, c)` of `opposite`.
+pub(super) fn worst_aspect(q: DVec3, opposite: &[(DVec3, DVec3)]) -> f64 {
+    opposite
+        .iter()
+        .fold(f64::INFINITY, |w, &(b, c)| w.min(aspect(q, b, c)))
+}
+
 /// Where relaxation takes a vertex at `p` with unit normal `n` whose star's
 /// triangles are `(p, b, c)` for the edges `(b, c)` of `opposite`, and the
 /// largest distance from `p` to their corners: the better, by the star's
@@ -152,11 +160,7 @@ pub(super) fn opposite(
 /// the neighbours' average (uniform Laplacian) and towards the
 /// area-weighted average of the star's triangle centroids.
 pub(crate) fn relaxation_target(p: DVec3, n: DVec3, opposite: &[(DVec3, DVec3)]) -> (DVec3, f64) {
-    let worst = |q: DVec3| {
-        opposite
-            .iter()
-            .fold(f64::INFINITY, |w, &(b, c)| w.min(aspect(q, b, c)))
-    };
+    let worst = |q: DVec3| worst_aspect(q, opposite);
     let (mut bary, mut cent, mut weight, mut reach) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0f64);
     for &(b, c) in opposite {
         bary += b + c;
@@ -284,10 +288,9 @@ fn smooth_with<E: Evaluator + ?Sized>(
     flips.keep_edges_between(keep);
     flips.keep_apart(seam);
     let pinned = pinned(&flips, mesh, keep, seam);
-    let allow = |_: &Mesh, _: u32, _: u32| true;
     let mut moved = vec![false; mesh.positions.len()];
     for _ in 0..passes {
-        flips.run_where(mesh, &allow);
+        flips.run(mesh);
         let star = Star::new(mesh);
         let mut aspects = flips.aspects().to_vec();
         for class in colour_classes(mesh, &star, |_| true) {
@@ -315,7 +318,7 @@ fn smooth_with<E: Evaluator + ?Sized>(
             }
         }
     }
-    flips.run_where(mesh, &allow);
+    flips.run(mesh);
     drop((flips, pinned));
     refresh_normals(mesh, f, t, &moved);
     Ok(accepted)
