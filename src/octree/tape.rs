@@ -1,0 +1,156 @@
+//! The program a subtree is evaluated with (the module doc's "Pruning"):
+//! pruned on the subtree's root box, interpreted or compiled, within a
+//! store limit and an interpretation budget.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::eval::{Evaluator, Reference, prune};
+use crate::interval::Interval;
+use crate::ir::Program;
+
+/// A pruned program is run by the reference interpreters once it has at
+/// most `1/INTERPRET_RATIO` of the full program's instructions (the JIT is
+/// roughly this many times faster per instruction; see `docs/jit.md`).
+pub(super) const INTERPRET_RATIO: usize = 8;
+
+/// With pruning, cells whose program is still long are interpreted too,
+/// until the interpreters have run the equivalent of this many full
+/// programs: compiling the JIT's value and gradient kernels (on first use,
+/// ≈ 40 µs an instruction) costs about as much as interpreting both
+/// (≈ 55 ns an instruction) this many times, so a model whose programs
+/// shrink fast never compiles them.
+pub(super) const INTERPRET_BUDGET: u64 = 512;
+
+/// Most instructions the live pruned programs of one octree may hold
+/// together (about 40 bytes each; counted anew after each level: the
+/// leaves' and the frontier's): past it, subtrees keep their parent's
+/// program.
+pub(super) const STORE_LIMIT: u64 = 1 << 23;
+
+/// The program a subtree's cells are evaluated with.
+#[derive(Clone)]
+pub(super) struct Tape {
+    /// The program pruned on the subtree's root box; `None` without
+    /// pruning.
+    pub(super) program: Option<Arc<Reference>>,
+    /// Evaluate with `program` (the interpreters) rather than the given
+    /// evaluator.
+    interpret: bool,
+    /// The last prune removed nothing: skip one attempt.
+    skip: bool,
+}
+
+impl Tape {
+    /// The root's tape: the full program `full` when pruning applies
+    /// (evaluated with the given evaluator, not interpreted).
+    pub(super) fn root(full: Option<&Program>) -> Tape {
+        Tape {
+            program: full.map(|p| Arc::new(Reference(p.clone()))),
+            interpret: false,
+            skip: false,
+        }
+    }
+
+    pub(super) fn same(&self, other: &Tape) -> bool {
+        match (&self.program, &other.program) {
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b) && self.interpret == other.interpret,
+            (None, None) => true,
+            _ => false,
+        }
+    }
+
+    /// Runs `job` with the evaluator for this tape (and whether it is the
+    /// interpreters): the interpreters on a short program, or on a long
+    /// one when `long` says so (decided per level, see [`Budget`]); `f`
+    /// otherwise.
+    pub(super) fn with<E: Evaluator + ?Sized, R>(
+        &self,
+        f: &E,
+        long: bool,
+        job: impl FnOnce(&dyn Evaluator, bool) -> R,
+    ) -> R {
+        match &self.program {
+            Some(r) if self.interpret || long => job(r.as_ref(), true),
+            // `&E` is a sized evaluator (the blanket impl), so it can be a
+            // trait object whatever `E` is.
+            _ => job(&f, false),
+        }
+    }
+
+    /// Instructions this tape costs per cell when it is long (pruned but
+    /// not short), else 0.
+    pub(super) fn long_cost(&self) -> u64 {
+        match &self.program {
+            Some(r) if !self.interpret => r.0.insts.len() as u64,
+            _ => 0,
+        }
+    }
+
+    /// The tape for the children of a node with box `cell`
+    /// that this tape evaluated. `full_len` is the full program's length.
+    pub(super) fn child(&self, cell: [Interval; 4], full_len: usize, store: &AtomicU64) -> Tape {
+        let Some(current) = &self.program else {
+            return self.clone();
+        };
+        let interpret = |len: usize| len * INTERPRET_RATIO <= full_len;
+        let stored = store.load(Ordering::Relaxed);
+        if self.skip || stored >= STORE_LIMIT || !prune::has_choices(&current.0) {
+            return Tape {
+                skip: false,
+                interpret: interpret(current.0.insts.len()),
+                program: self.program.clone(),
+            };
+        }
+        let pruned: Program = prune::prune(&current.0, cell);
+        // A new program only when it is a tenth shorter: the programs along
+        // a path from the root shrink geometrically, and the memory they
+        // hold stays within `STORE_LIMIT` instructions.
+        if 10 * pruned.insts.len() > 9 * current.0.insts.len() {
+            return Tape {
+                // Nothing at all came off: the next level is unlikely to
+                // do better, skip its attempt.
+                skip: pruned.insts.len() >= current.0.insts.len(),
+                interpret: interpret(current.0.insts.len()),
+                program: self.program.clone(),
+            };
+        }
+        store.fetch_add(pruned.insts.len() as u64, Ordering::Relaxed);
+        Tape {
+            interpret: interpret(pruned.insts.len()),
+            program: Some(Arc::new(Reference(pruned))),
+            skip: false,
+        }
+    }
+}
+
+/// The interpretation budget for long pruned programs, spent a level at a
+/// time (so the choice of evaluator never depends on thread timing): a
+/// level whose long programs fit in what is left is interpreted; the first
+/// that does not, and every one after it, goes to the given evaluator.
+#[derive(Clone, Copy)]
+pub(super) struct Budget {
+    left: u64,
+    pub(super) open: bool,
+}
+
+impl Budget {
+    /// [`INTERPRET_BUDGET`] full programs of `full_len` instructions.
+    pub(super) fn new(full_len: usize) -> Budget {
+        Budget {
+            left: INTERPRET_BUDGET * full_len as u64,
+            open: true,
+        }
+    }
+
+    /// Whether the long programs of a stage costing `cost` instructions are
+    /// interpreted.
+    pub(super) fn spend(&mut self, cost: u64) -> bool {
+        if self.open && cost <= self.left {
+            self.left -= cost;
+        } else if cost > 0 {
+            self.open = false;
+        }
+        self.open
+    }
+}

@@ -1,0 +1,96 @@
+//! The built tree: its nodes, the boxes they stand for, and the counts
+//! gathered while building.
+
+use glam::DVec3;
+use std::sync::Arc;
+
+use super::node::{Kind, Leaf, Node};
+use super::octant::Octant;
+use crate::eval::Reference;
+
+/// Counts gathered while building.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct OctreeStats {
+    /// Number of octree nodes built, leaves included.
+    pub nodes: usize,
+    /// Leaves proved to hold no surface ([`Leaf::Empty`]).
+    pub empty_leaves: usize,
+    /// Leaves that may hold surface and passed the topology criterion
+    /// ([`Leaf::Surface`]).
+    pub surface_leaves: usize,
+    /// Leaves whose topology is not guaranteed ([`Leaf::Ambiguous`]).
+    pub ambiguous_leaves: usize,
+    /// Deepest level of a leaf that may hold surface.
+    pub max_level_reached: u8,
+}
+
+/// The adaptive octree. See the module doc.
+#[derive(Clone)]
+pub struct Octree {
+    /// All nodes, root first, siblings consecutive (see the module doc's
+    /// "Layout").
+    pub nodes: Vec<Node>,
+    /// Lowest corner of the domain Ω (the root's box).
+    pub lo: DVec3,
+    /// Extent of Ω along each axis (`hi - lo`).
+    pub size: DVec3,
+    /// Counts gathered while building.
+    pub stats: OctreeStats,
+    /// Per node, the pruned program that is valid on a leaf's box, when
+    /// the leaf's subtree was evaluated with one (see the module doc's
+    /// "Pruning"); `None`, or past the end of the vector, elsewhere. Empty
+    /// without pruning. [`Octree::field`] evaluates with them.
+    pub tapes: Vec<Option<Arc<Reference>>>,
+}
+
+impl Octree {
+    /// The leaf whose closed box holds `p` (descent by the splitting
+    /// planes of [`Octree::cell_box`]), if `p` is in the domain.
+    pub fn leaf_containing(&self, p: DVec3) -> Option<usize> {
+        let (a, b) = self.cell_box(self.nodes.first()?);
+        if !(p.cmpge(a).all() && p.cmple(b).all()) {
+            return None;
+        }
+        let mut i = 0usize;
+        while let Kind::Branch { first_child } = self.nodes[i].kind {
+            let (_, split) = self.cell_box(&self.nodes[first_child as usize]);
+            i = first_child as usize + usize::from(Octant::containing(p, split).0);
+        }
+        Some(i)
+    }
+
+    /// The box of a node, by the one formula shared by all nodes.
+    pub fn cell_box(&self, n: &Node) -> (DVec3, DVec3) {
+        let scale = (1u64 << n.level) as f64;
+        let at = |k: [u32; 3]| {
+            let f = DVec3::new(k[0] as f64, k[1] as f64, k[2] as f64) / scale;
+            self.lo + self.size * f
+        };
+        (at(n.ijk), at(n.ijk.map(|k| k + 1)))
+    }
+
+    /// The centre of a node's box.
+    pub fn center(&self, n: &Node) -> DVec3 {
+        let (a, b) = self.cell_box(n);
+        (a + b) * 0.5
+    }
+
+    pub(super) fn count(&mut self) {
+        let mut s = OctreeStats {
+            nodes: self.nodes.len(),
+            ..OctreeStats::default()
+        };
+        for n in &self.nodes {
+            match n.leaf() {
+                Some(Leaf::Empty) => s.empty_leaves += 1,
+                Some(Leaf::Surface) => s.surface_leaves += 1,
+                Some(Leaf::Ambiguous) => s.ambiguous_leaves += 1,
+                Some(Leaf::Outside) | None => continue,
+            }
+            if n.leaf() != Some(Leaf::Empty) {
+                s.max_level_reached = s.max_level_reached.max(n.level);
+            }
+        }
+        self.stats = s;
+    }
+}
