@@ -27,7 +27,9 @@
 //!    box, after sliding along the crease (its one free direction) into
 //!    the box when the mean's nearest crease point lies outside it;
 //! 2. moved onto `f = 0` ([`crate::roots::project`], to bisection
-//!    precision), it moves less than a tenth of the box's smallest side
+//!    precision; where the gradient line finds no zero, along the
+//!    bisector of the two normals that differ most, [`line_zero`]), it
+//!    moves less than a tenth of the box's smallest side
 //!    and stays in the box (up to rounding room, `SLIDE_INSET` of the
 //!    side), and it is a kink of f, not a bend: a tenth of
 //!    the way from it towards the two vertices whose normals differ most,
@@ -664,7 +666,13 @@ fn candidate<E: Evaluator + ?Sized>(
     if !p.is_finite() || !inside(p) {
         return grazed();
     }
-    let q = project(f, t, p, 0.1 * side)?;
+    // Along the gradient line of one side of a crease, the other side's
+    // value changes at the cosine of the angle between their normals:
+    // hardly at all near a right angle, the wrong way past it. From a
+    // point off both sides (a lens's rim: 87°), the bisector of the
+    // normals reaches the surface where that line does not.
+    let bisector = (normals[far[0]] + normals[far[1]]).normalize_or_zero();
+    let q = project(f, t, p, 0.1 * side).or_else(|| line_zero(f, t, p, bisector, 0.1 * side))?;
     let room = DVec3::splat(SLIDE_INSET * side);
     let near = |x: DVec3| x.cmpge(lo - room).all() && x.cmple(hi + room).all();
     if !near(q) || q.distance(p) > 0.1 * side {
