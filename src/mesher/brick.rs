@@ -53,9 +53,7 @@ use crate::mesh::order::{permute, retain};
 use crate::mesh::origin::{self, Origins};
 use crate::mesh::sink::Sink;
 use crate::mesh::{Mesh, topology};
-use crate::octree::{
-    Leaf, MAX_LEVEL, Node, Octree, OctreeStats, Region, SharedLevels, TopologyTest,
-};
+use crate::octree::{MAX_LEVEL, Node, Octree, OctreeStats, Region, SharedLevels, TopologyTest};
 use crate::polygonize::extract;
 use crate::surface::Surface;
 
@@ -378,20 +376,7 @@ fn name_crease_points(
 /// The octree's counts over the nodes the brick owns (by their low
 /// corners): summed over all bricks, the whole tree's.
 fn owned_stats(tree: &Octree, brick: Brick) -> OctreeStats {
-    let mut s = OctreeStats::default();
-    for n in tree.nodes.iter().filter(|n| brick.owns_node(n)) {
-        s.nodes += 1;
-        match n.leaf() {
-            Some(Leaf::Empty) => s.empty_leaves += 1,
-            Some(Leaf::Surface) => s.surface_leaves += 1,
-            Some(Leaf::Ambiguous) => s.ambiguous_leaves += 1,
-            Some(Leaf::Outside) | None => continue,
-        }
-        if n.leaf() != Some(Leaf::Empty) {
-            s.max_level_reached = s.max_level_reached.max(n.level);
-        }
-    }
-    s
+    OctreeStats::over(tree.nodes.iter().filter(|n| brick.owns_node(n)))
 }
 
 /// Why [`mesh_bricks`] stopped.

@@ -654,16 +654,19 @@ fn candidate<E: Evaluator + ?Sized>(
     {
         return feature(q, Some(edge));
     }
-    let inside = |x: DVec3| x.cmpge(lo).all() && x.cmple(hi).all();
+    // In the box grown by `room` on every side.
+    let within = |x: DVec3, room: f64| {
+        x.cmpge(lo - DVec3::splat(room)).all() && x.cmple(hi + DVec3::splat(room)).all()
+    };
     // Along a crease (one free direction) the point may slide along it
     // into the box.
-    if free.len() == 1 && p.is_finite() && !inside(p) {
+    if free.len() == 1 && p.is_finite() && !within(p, 0.0) {
         match slide_into(p, free[0], lo, hi) {
             Some(x) => p = x,
             None => return grazed(),
         }
     }
-    if !p.is_finite() || !inside(p) {
+    if !p.is_finite() || !within(p, 0.0) {
         return grazed();
     }
     // Along the gradient line of one side of a crease, the other side's
@@ -673,9 +676,7 @@ fn candidate<E: Evaluator + ?Sized>(
     // normals reaches the surface where that line does not.
     let bisector = (normals[far[0]] + normals[far[1]]).normalize_or_zero();
     let q = project(f, t, p, 0.1 * side).or_else(|| line_zero(f, t, p, bisector, 0.1 * side))?;
-    let room = DVec3::splat(SLIDE_INSET * side);
-    let near = |x: DVec3| x.cmpge(lo - room).all() && x.cmple(hi + room).all();
-    if !near(q) || q.distance(p) > 0.1 * side {
+    if !within(q, SLIDE_INSET * side) || q.distance(p) > 0.1 * side {
         return None;
     }
     feature(q, None)

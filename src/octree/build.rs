@@ -63,7 +63,9 @@ impl Octree {
         progress: &(dyn Fn(u8, usize) + Sync),
         cancel: &Cancel,
     ) -> Result<Octree, Cancelled> {
-        Octree::build_in(f, domain, opts, refine, progress, cancel)
+        let mut run = Run::new(f, domain, opts, Some(refine));
+        run.advance(false, progress, cancel)?;
+        Ok(run.b.finish())
     }
 
     /// [`Octree::build_cancellable`] for one brick of a bricked run: the
@@ -112,19 +114,6 @@ impl Octree {
         cancel: &Cancel,
     ) -> Result<Octree, Cancelled> {
         let mut run = shared.0.fork(region);
-        run.advance(false, progress, cancel)?;
-        Ok(run.b.finish())
-    }
-
-    fn build_in<E: Evaluator + ?Sized>(
-        f: &E,
-        domain: Bounds,
-        opts: &OctreeOptions,
-        refine: &Refine,
-        progress: &(dyn Fn(u8, usize) + Sync),
-        cancel: &Cancel,
-    ) -> Result<Octree, Cancelled> {
-        let mut run = Run::new(f, domain, opts, Some(refine));
         run.advance(false, progress, cancel)?;
         Ok(run.b.finish())
     }
@@ -449,7 +438,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
         }
         self.tree
             .clear_false_ambiguity(self.f, self.opts, &self.ambiguous, long);
-        self.tree.count();
+        self.tree.stats = OctreeStats::over(&self.tree.nodes);
         self.tree
     }
 }

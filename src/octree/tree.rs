@@ -74,13 +74,15 @@ impl Octree {
         let (a, b) = self.cell_box(n);
         (a + b) * 0.5
     }
+}
 
-    pub(super) fn count(&mut self) {
-        let mut s = OctreeStats {
-            nodes: self.nodes.len(),
-            ..OctreeStats::default()
-        };
-        for n in &self.nodes {
+impl OctreeStats {
+    /// The counts over `nodes` (a tree's, or the part of one a brick
+    /// owns).
+    pub(crate) fn over<'a>(nodes: impl IntoIterator<Item = &'a Node>) -> OctreeStats {
+        let mut s = OctreeStats::default();
+        for n in nodes {
+            s.nodes += 1;
             match n.leaf() {
                 Some(Leaf::Empty) => s.empty_leaves += 1,
                 Some(Leaf::Surface) => s.surface_leaves += 1,
@@ -91,6 +93,6 @@ impl Octree {
                 s.max_level_reached = s.max_level_reached.max(n.level);
             }
         }
-        self.stats = s;
+        s
     }
 }

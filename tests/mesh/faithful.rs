@@ -60,6 +60,22 @@ fn adaptive_minimum(s: &isoc::Surface, level: u8) -> (isoc::Mesh, isoc::MeshRepo
     )
 }
 
+/// `mesh` after the chord splits (`mesher::chord::split_edges`) at the
+/// uniform tolerance `tau`: its feature flags, the splits made and the
+/// tolerance.
+fn split_at(
+    mesh: &mut isoc::Mesh,
+    s: &isoc::Surface,
+    tau: f64,
+) -> (Vec<bool>, usize, isoc::octree::Chord) {
+    let chord = isoc::octree::Chord::uniform(tau);
+    let mut feature = Vec::new();
+    let n =
+        isoc::mesher::chord::split_edges(mesh, &mut feature, s, 0.0, chord, &isoc::Cancel::new())
+            .expect("never cancelled");
+    (feature, n, chord)
+}
+
 /// A surface's source, its exact distance function and its genus.
 type Case<'a> = (&'a str, &'a dyn Fn(DVec3) -> f64, i64);
 
@@ -138,16 +154,7 @@ fn chord_splits_keep_the_mesh_and_bring_midpoints_within_the_tolerance() {
     };
     let worst = midpoints(&mesh).into_iter().fold(0.0, f64::max);
     let tau = worst / 10.0;
-    let mut feature = Vec::new();
-    let n = isoc::mesher::chord::split_edges(
-        &mut mesh,
-        &mut feature,
-        &s,
-        0.0,
-        isoc::octree::Chord::uniform(tau),
-        &isoc::Cancel::new(),
-    )
-    .expect("never cancelled");
+    let (_, n, _) = split_at(&mut mesh, &s, tau);
     assert!(n > 0);
     let after = isoc::mesh::topology::analyze(&mesh);
     assert!(after.manifold() && after.watertight, "{after:?}");
@@ -211,11 +218,8 @@ fn the_pass_after_the_splits_stretches_no_edge_past_the_tolerance() {
         .map(|(_, d)| d)
         .fold(0.0, f64::max)
         / 10.0;
-    let chord = isoc::octree::Chord::uniform(tau);
+    let (feature, _, chord) = split_at(&mut mesh, &s, tau);
     let never = isoc::Cancel::new();
-    let mut feature = Vec::new();
-    isoc::mesher::chord::split_edges(&mut mesh, &mut feature, &s, 0.0, chord, &never)
-        .expect("never cancelled");
     let before = far(&mesh, tau);
     let good = isoc::mesh::quality::aspect_good;
     let mut held = mesh.clone();
@@ -250,11 +254,8 @@ fn the_pass_after_the_splits_lowers_the_chord_error_at_the_same_count() {
         .map(|t| dist((mesh.positions[t[0] as usize] + mesh.positions[t[1] as usize]) * 0.5))
         .fold(0.0, f64::max)
         / 10.0;
-    let chord = isoc::octree::Chord::uniform(tau);
+    let (feature, _, chord) = split_at(&mut mesh, &s, tau);
     let never = isoc::Cancel::new();
-    let mut feature = Vec::new();
-    isoc::mesher::chord::split_edges(&mut mesh, &mut feature, &s, 0.0, chord, &never)
-        .expect("never cancelled");
     let mut settled = mesh.clone();
     let moves = isoc::mesher::settle::settle(&mut settled, &s, 0.0, &feature, &[], chord, &never)
         .expect("uncancelled");
