@@ -25,17 +25,23 @@
 //!    mean, directions of small curvature of the error truncated, so that
 //!    along a crease it stays at the mean) — lies in the cell's bounding
 //!    box, after sliding along the crease (its one free direction) into
-//!    the box when the mean's nearest crease point lies outside it;
+//!    the box when the mean's nearest crease point lies outside it; where
+//!    the crease does not cross the box, it may lie up to `WEDGE_ROOM`
+//!    sides past it when it is the tip of a wedge sharper than a right
+//!    angle (the two sides' normals turn by more than 90°) and `f` keeps
+//!    the patch's sign on the way there (`wedge_tip`: the dual grid's
+//!    samples miss such a tip where the wedge is thinner than a cell, and
+//!    the patch across it stands up to a cell short of it);
 //! 2. moved onto `f = 0` ([`crate::roots::project`], to bisection
 //!    precision; where the gradient line finds no zero, along the
 //!    bisector of the two normals that differ most, [`line_zero`]), it
 //!    moves less than a tenth of the box's smallest side
 //!    and stays in the box (up to rounding room, `SLIDE_INSET` of the
-//!    side), and it is a kink of f, not a bend: a tenth of
-//!    the way from it towards the two vertices whose normals differ most,
-//!    the gradients still differ by half the gap between the normals'
-//!    clusters (on a smooth patch they differ by about a tenth of the
-//!    normals' whole spread);
+//!    side, past the room a wedge's tip has), and it is a kink of f, not a
+//!    bend: a tenth of the way from it towards the two vertices whose
+//!    normals differ most, the gradients still differ by half the gap
+//!    between the normals' clusters (on a smooth patch they differ by
+//!    about a tenth of the normals' whole spread);
 //! 3. the fan — one triangle `(a, b, q)` per boundary edge `a → b` of the
 //!    patch, so it keeps the patch's orientation — has no degenerate
 //!    triangle and each triangle faces along the surface normals at `a`
@@ -82,7 +88,10 @@
 //! neighbouring feature point to merge into (a corner whose point lies
 //! outside a small cell often is one). A fan is tested against its own
 //! cell's surface normals and bounding box, not against other cells'
-//! triangles (no stage tests for self-intersection). The normals at
+//! triangles (no stage tests for self-intersection); a wedge's tip past
+//! the box is checked only along the segment from the patch's mean, by
+//! `WEDGE_SAMPLES` samples of `f`'s sign, so a sheet thinner than their
+//! spacing between the patch and the tip is not seen. The normals at
 //! feature points are the gradient there (one side's, where f has a kink;
 //! just off the point along the patch's normals where the gradient
 //! vanishes, at a singular point), as for every vertex.
@@ -659,14 +668,18 @@ fn candidate<E: Evaluator + ?Sized>(
         x.cmpge(lo - DVec3::splat(room)).all() && x.cmple(hi + DVec3::splat(room)).all()
     };
     // Along a crease (one free direction) the point may slide along it
-    // into the box.
+    // into the box; the tip of a wedge may lie past it.
+    let mut room = 0.0;
     if free.len() == 1 && p.is_finite() && !within(p, 0.0) {
         match slide_into(p, free[0], lo, hi) {
             Some(x) => p = x,
+            None if wedge_tip(f, t, mean, p, [normals[far[0]], normals[far[1]]]) => {
+                room = WEDGE_ROOM * side;
+            }
             None => return grazed(),
         }
     }
-    if !p.is_finite() || !within(p, 0.0) {
+    if !p.is_finite() || !within(p, room) {
         return grazed();
     }
     // Along the gradient line of one side of a crease, the other side's
@@ -676,11 +689,36 @@ fn candidate<E: Evaluator + ?Sized>(
     // normals reaches the surface where that line does not.
     let bisector = (normals[far[0]] + normals[far[1]]).normalize_or_zero();
     let q = project(f, t, p, 0.1 * side).or_else(|| line_zero(f, t, p, bisector, 0.1 * side))?;
-    if !within(q, SLIDE_INSET * side) || q.distance(p) > 0.1 * side {
+    if !within(q, room + SLIDE_INSET * side) || q.distance(p) > 0.1 * side {
         return None;
     }
     feature(q, None)
 }
+
+/// How far past its cell's box the tip of a wedge may lie, in sides of the
+/// box's smallest side (see [`wedge_tip`]).
+const WEDGE_ROOM: f64 = 1.0;
+
+/// Whether the crease point `p`, off its cell's box, is the tip of a wedge
+/// that the patch cuts off: the normals `far` on its two sides turn by
+/// more than a right angle (a wedge sharper than one, whose tip the dual
+/// grid's samples miss: the patch across it lies up to a cell short of
+/// the crease), and `f` keeps the sign it has at the patch's `mean` on the
+/// way from there to `p` (no other sheet lies between the patch and the
+/// tip).
+fn wedge_tip<E: Evaluator + ?Sized>(f: &E, t: f64, mean: DVec3, p: DVec3, far: [DVec3; 2]) -> bool {
+    let at = |x: DVec3| f.point([x.x, x.y, x.z, t]);
+    let inside = at(mean);
+    far[0].dot(far[1]) < 0.0
+        && inside != 0.0
+        && (1..WEDGE_SAMPLES).all(|k| {
+            let v = at(mean + (p - mean) * (k as f64 / WEDGE_SAMPLES as f64));
+            v != 0.0 && (v < 0.0) == (inside < 0.0)
+        })
+}
+
+/// Samples of `f` on the way from a patch to the tip of its wedge.
+const WEDGE_SAMPLES: usize = 8;
 
 /// A kink, not a bend, at the feature point `q`: near it, towards the two
 /// patch vertices `towards` whose normals differ most, the gradient still
