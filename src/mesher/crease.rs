@@ -41,7 +41,11 @@
 //!    bend: a tenth of the way from it towards the two vertices whose
 //!    normals differ most, the gradients still differ by half the gap
 //!    between the normals' clusters (on a smooth patch they differ by
-//!    about a tenth of the normals' whole spread);
+//!    about a tenth of the normals' whole spread); where the two sides'
+//!    gradients differ in length by 2× or more, also when, a quarter of
+//!    the way towards one of them and a tenth towards the other, they
+//!    differ by 0.8 of the gap (`STEEPER`: the steeper side's values meet
+//!    the other's off the point);
 //! 3. the fan — one triangle `(a, b, q)` per boundary edge `a → b` of the
 //!    patch, so it keeps the patch's orientation — has no degenerate
 //!    triangle and each triangle faces along the surface normals at `a`
@@ -116,8 +120,27 @@ pub const SPLIT_DEG: f64 = 25.0;
 const GAP_RATIO: f64 = 3.0;
 
 /// The kink test looks at the gradient this fraction of the way from the
-/// feature point to two patch vertices.
+/// feature point to two patch vertices ...
 const NEAR: f64 = 0.1;
+
+/// ... and, where the two sides' gradients differ in length by this
+/// factor or more, once more with one of the two at [`FARTHER`] of the
+/// way, the gradients then turning by [`FARTHER_SHARE`] of the gap. A
+/// point projected onto one side stands a little off the crease, and
+/// the sides' values meet farther along a chord the steeper the other
+/// side: a point 0.006 cells off a gyroid's crease with a ball, whose
+/// gradient is five times the ball's, has the gyroid's side only past 12 %
+/// of the way to a vertex on it (the cell kept its chamfer: 597 such cells
+/// on gyroid_ball at depth 8, `docs/faithful.md`). Where the lengths are
+/// alike (exact ties of two primitives, smooth bends) the second look is
+/// not taken: it would read a tight bend as a kink.
+const STEEPER: f64 = 2.0;
+
+/// See [`STEEPER`].
+const FARTHER: f64 = 0.25;
+
+/// See [`STEEPER`].
+const FARTHER_SHARE: f64 = 0.8;
 
 /// Rounding room for a feature point: one slid along its crease into its
 /// cell's box stops this share of the crease's chord through the box short
@@ -722,17 +745,27 @@ const WEDGE_SAMPLES: usize = 8;
 
 /// A kink, not a bend, at the feature point `q`: near it, towards the two
 /// patch vertices `towards` whose normals differ most, the gradient still
-/// turns by at least half the normals' `gap` (on a smooth surface it turns
-/// by a fraction [`NEAR`] of the patch's whole turn).
+/// turns by at least half the normals' `gap` ([`NEAR`]; on a smooth surface
+/// it turns by about that fraction of the patch's whole turn), or, where
+/// the two sides' gradients differ in length, by most of it a little
+/// farther towards one of them ([`STEEPER`]).
 fn kinks<E: Evaluator + ?Sized>(f: &E, t: f64, q: DVec3, towards: [DVec3; 2], gap: f64) -> bool {
-    let [gi, gj] = towards.map(|v| {
-        let x = q + (v - q) * NEAR;
-        let (_, g) = f.point_grad([x.x, x.y, x.z, t]);
-        DVec3::from_array(g).normalize_or_zero()
-    });
-    gi.length_squared() >= 0.5
-        && gj.length_squared() >= 0.5
-        && gi.dot(gj).clamp(-1.0, 1.0).acos() >= 0.5 * gap
+    let grad = |x: DVec3| DVec3::from_array(f.point_grad([x.x, x.y, x.z, t]).1);
+    let unit_grad = |v: DVec3, near: f64| grad(q + (v - q) * near).normalize_or_zero();
+    let turns = |[ni, nj]: [f64; 2], share: f64| {
+        let (gi, gj) = (unit_grad(towards[0], ni), unit_grad(towards[1], nj));
+        gi.length_squared() >= 0.5
+            && gj.length_squared() >= 0.5
+            && gi.dot(gj).clamp(-1.0, 1.0).acos() >= share * gap
+    };
+    if turns([NEAR, NEAR], 0.5) {
+        return true;
+    }
+    // Sides whose gradients differ in length meet off the point.
+    let [li, lj] = towards.map(|v| grad(v).length());
+    let steeper = li.max(lj) / li.min(lj);
+    steeper >= STEEPER
+        && (turns([FARTHER, NEAR], FARTHER_SHARE) || turns([NEAR, FARTHER], FARTHER_SHARE))
 }
 
 /// Where the crease line `(p, dir)` (a point and its direction) leaves Ω

@@ -18,7 +18,7 @@ use isoc::mesher::coarsen::{Marks, coarsen};
 use isoc::octree::Chord;
 use isoc::{Cancel, Mesh, MeshOptions, OctreeOptions};
 
-use crate::support::{edge_uses, position_bits, surface};
+use crate::support::{edge_uses, first_order, position_bits, surface};
 
 const TORUS: &str = "domain [-1.5, 1.5]^3; surface (sqrt(x^2 + y^2) - 1)^2 + z^2 - 0.09;";
 
@@ -86,15 +86,8 @@ fn coarsening_keeps_the_mesh_and_the_chord_tolerance() {
     let torus_dist = |p: DVec3| ((p.truncate().length() - 1.0).hypot(p.z) - 0.3).abs();
     for (src, level) in [(TORUS, 6u8), (PRODUCT, 7)] {
         let (s, input, tau) = extracted(src, level);
-        let first_order = |p: DVec3| {
-            let (v, g) = s.point_grad([p.x, p.y, p.z, 0.0]);
-            v.abs() / DVec3::from_array(g).length()
-        };
-        let dist: &dyn Fn(DVec3) -> f64 = if src == TORUS {
-            &torus_dist
-        } else {
-            &first_order
-        };
+        let on_f = |p: DVec3| first_order(&s, p, 0.0);
+        let dist: &dyn Fn(DVec3) -> f64 = if src == TORUS { &torus_dist } else { &on_f };
         // Every seventh vertex pinned.
         let pinned: Vec<bool> = (0..input.positions.len()).map(|i| i % 7 == 0).collect();
         let mut mesh = input.clone();

@@ -14,7 +14,7 @@
 use glam::DVec3;
 use isoc::{MeshOptions, OctreeOptions};
 
-use crate::support::{edge_uses, position_bits, surface};
+use crate::support::{edge_uses, first_order, position_bits, surface};
 
 /// The 99.9th percentile of `dist` over the centroids and edge midpoints.
 fn chord_p999(mesh: &isoc::Mesh, dist: &dyn Fn(DVec3) -> f64) -> f64 {
@@ -198,11 +198,7 @@ fn the_pass_after_the_splits_stretches_no_edge_past_the_tolerance() {
             .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
             .map(|(a, b)| {
                 let mid = (m.positions[a as usize] + m.positions[b as usize]) * 0.5;
-                let (v, g) = s.point_grad([mid.x, mid.y, mid.z, 0.0]);
-                (
-                    (a.min(b), a.max(b)),
-                    v.abs() / DVec3::from_array(g).length(),
-                )
+                ((a.min(b), a.max(b)), first_order(&s, mid, 0.0))
             })
             .collect()
     };
@@ -321,13 +317,6 @@ fn later_chord_rounds_measure_only_new_edges_and_split_the_same() {
     }
 }
 
-/// The first-order distance `|f| / ‖∇f‖` from `p` to `s = 0` (the
-/// mesher's own measure).
-fn first_order(s: &isoc::Surface, p: DVec3) -> f64 {
-    let (v, g) = s.point_grad([p.x, p.y, p.z, 0.0]);
-    v.abs() / DVec3::from_array(g).length()
-}
-
 /// With the defaults, every triangle's centroid, not only its edges'
 /// midpoints, stands within the tolerance off a sphere: smoothing makes
 /// triangles equilateral, whose centroids stand a third farther off than
@@ -350,7 +339,7 @@ fn centroids_stand_within_the_tolerance_too() {
         let far = mesh
             .triangles
             .iter()
-            .filter(|t| first_order(&s, centroid(t)) > allowed)
+            .filter(|t| first_order(&s, centroid(t), 0.0) > allowed)
             .count();
         assert_eq!(far, 0, "L{level}: of {} triangles", mesh.triangles.len());
     }
@@ -385,7 +374,7 @@ fn boundary_edges_are_split_within_their_face() {
         let (pa, pb) = (p[a as usize], p[b as usize]);
         let face = (0..2).find(|&k| pa[k].abs() == 1.0 && pb[k] == pa[k]);
         assert!(face.is_some(), "{pa} {pb} not on one side face");
-        let d = first_order(&s, (pa + pb) * 0.5);
+        let d = first_order(&s, (pa + pb) * 0.5, 0.0);
         assert!(d <= allowed, "{pa} {pb}: {d:e} > {allowed:e}");
     }
 }
@@ -414,7 +403,7 @@ fn a_flat_domain_is_refined_as_its_tolerance_reads_it() {
     let t = &report.topology;
     assert!(t.manifold() && t.watertight, "{t:?}");
     assert_eq!(t.genus, vec![Some(2)]);
-    let e = chord_p999(&mesh, &|p| first_order(&s, p));
+    let e = chord_p999(&mesh, &|p| first_order(&s, p, 0.0));
     assert!(e <= 2.0 * most, "chord {e:e} against {most:e}");
 }
 
@@ -526,6 +515,6 @@ fn a_thin_wedge_keeps_its_tip() {
     assert!(report.topology.manifold(), "{:?}", report.topology);
     assert_eq!(report.topology.genus, vec![Some(1)]);
     let cell = 2.0 / f64::from(1u32 << level);
-    let p = chord_p999(&mesh, &|p| first_order(&s, p)) / cell;
+    let p = chord_p999(&mesh, &|p| first_order(&s, p, 0.0)) / cell;
     assert!(p < 0.047, "99.9th percentile {p} cells");
 }

@@ -794,6 +794,13 @@ pub fn surface(src: &str) -> isoc::Surface {
         .unwrap_or_else(|e| panic!("{}", e.render()))
 }
 
+/// The first-order distance `|f| / ‖∇f‖` from `p` to `s = 0` at time `t`
+/// (the mesher's own measure of a point's distance to the surface).
+pub fn first_order(s: &isoc::Surface, p: glam::DVec3, t: f64) -> f64 {
+    let (v, g) = s.point_grad([p.x, p.y, p.z, t]);
+    v.abs() / glam::DVec3::from_array(g).length()
+}
+
 /// Every `corpus/*.iso` file as (path, source), sorted by path.
 pub fn corpus() -> Vec<(String, String)> {
     let mut files: Vec<(String, String)> = std::fs::read_dir("corpus")

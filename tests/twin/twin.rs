@@ -13,7 +13,7 @@ use isoc::twin::remesh::Held;
 use isoc::twin::{FrameReport, Tracker, TwinOptions, geometric};
 use isoc::{CompileOptions, Surface};
 
-use crate::support::surface;
+use crate::support::{first_order, surface};
 
 fn corpus(name: &str) -> Surface {
     let path = format!("{}/corpus/{name}.iso", env!("CARGO_MANIFEST_DIR"));
@@ -25,10 +25,7 @@ fn corpus(name: &str) -> Surface {
 fn max_residual(s: &Surface, mesh: &Mesh, t: f64) -> f64 {
     mesh.positions
         .iter()
-        .map(|p| {
-            let (v, g) = s.point_grad([p.x, p.y, p.z, t]);
-            v.abs() / DVec3::from_array(g).length()
-        })
+        .map(|&p| first_order(s, p, t))
         .fold(0.0, f64::max)
 }
 
