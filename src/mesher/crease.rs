@@ -108,7 +108,7 @@ use crate::eval::Evaluator;
 use crate::eval::sample::{grads_at, orient_at_kinks};
 use crate::geometry::Bounds;
 use crate::mesh::Mesh;
-use crate::roots::{line_zero, project};
+use crate::roots::{at, line_zero, project};
 
 /// Normals of one cell marking a crease: they fall into two or three
 /// clusters at least this many degrees apart ...
@@ -730,12 +730,12 @@ const WEDGE_ROOM: f64 = 1.0;
 /// way from there to `p` (no other sheet lies between the patch and the
 /// tip).
 fn wedge_tip<E: Evaluator + ?Sized>(f: &E, t: f64, mean: DVec3, p: DVec3, far: [DVec3; 2]) -> bool {
-    let at = |x: DVec3| f.point([x.x, x.y, x.z, t]);
-    let inside = at(mean);
+    let value = |x: DVec3| f.point(at(x, t));
+    let inside = value(mean);
     far[0].dot(far[1]) < 0.0
         && inside != 0.0
         && (1..WEDGE_SAMPLES).all(|k| {
-            let v = at(mean + (p - mean) * (k as f64 / WEDGE_SAMPLES as f64));
+            let v = value(mean + (p - mean) * (k as f64 / WEDGE_SAMPLES as f64));
             v != 0.0 && (v < 0.0) == (inside < 0.0)
         })
 }
@@ -750,7 +750,7 @@ const WEDGE_SAMPLES: usize = 8;
 /// the two sides' gradients differ in length, by most of it a little
 /// farther towards one of them ([`STEEPER`]).
 fn kinks<E: Evaluator + ?Sized>(f: &E, t: f64, q: DVec3, towards: [DVec3; 2], gap: f64) -> bool {
-    let grad = |x: DVec3| DVec3::from_array(f.point_grad([x.x, x.y, x.z, t]).1);
+    let grad = |x: DVec3| DVec3::from_array(f.point_grad(at(x, t)).1);
     let unit_grad = |v: DVec3, near: f64| grad(q + (v - q) * near).normalize_or_zero();
     let turns = |[ni, nj]: [f64; 2], share: f64| {
         let (gi, gj) = (unit_grad(towards[0], ni), unit_grad(towards[1], nj));
