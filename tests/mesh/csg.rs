@@ -196,6 +196,18 @@ fn interior_vertices_are_on_the_surface() {
     scenes_pass(&[1_000_222, 1_000_563, 1_000_876]);
 }
 
+/// Box seed 66125 (tangent spheres, a rational blend, a thin wall): a
+/// vertex at `f = −5.9·10⁻¹⁸` where the point gradient is NaN (a rounded
+/// box's `sqrt` of 0) and the surface touches zero without crossing it,
+/// so no sign change lies within `h/64`; the check read it as off the
+/// surface until it also measured `f` by its secant slope there.
+#[test]
+fn a_touching_zero_is_on_the_surface() {
+    let scene = Scene::random(66_125, &Config::default()).in_random_box();
+    let s = compile(&scene.source, "seed_66125.iso");
+    assert_passes(&s, 7, false, "box seed 66125");
+}
+
 /// Compiles a file of `../shared` (beside the repo).
 fn load(path: &str) -> Surface {
     let src = std::fs::read_to_string(path).expect("../shared is beside the repo");

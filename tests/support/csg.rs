@@ -56,7 +56,9 @@
 //! the two references disagree the scene is counted as *unresolved*
 //! rather than failed. "Outward" is judged at centroids, which lie off the
 //! surface; "on surface" uses the point gradient, so where ∇f is not
-//! defined (NaN, or 0) it falls back to a sign change of `f` within `h/64`.
+//! defined (NaN, or 0) it falls back to a sign change of `f` within `h/64`,
+//! or to the same bound with the steepest secant slope over those samples
+//! (a zero the surface touches without crossing: box seed 66125).
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
@@ -896,7 +898,7 @@ pub fn check_mesh(
         let ok = if g.is_finite() && g > 0.0 {
             v.abs() <= ON_SURFACE * h * g
         } else {
-            sign_change_near(s, *p, h / 64.0)
+            zero_near(s, *p, h / 64.0, ON_SURFACE * h)
         };
         if !ok {
             off.push((i, *p, v, g));
@@ -1258,21 +1260,29 @@ fn shape_of(t: &topology::Topology) -> (usize, Vec<Option<i64>>) {
     (t.components, g)
 }
 
-/// Whether `f` changes sign (or is 0) within `r` of `p` along an axis.
-fn sign_change_near(s: &Surface, p: DVec3, r: f64) -> bool {
+/// Whether `f` has a zero at `p` where its point gradient is not defined:
+/// `f` changes sign (or is 0) within `r` of `p` along an axis, or `f(p)`
+/// stands within `tol` of 0 measured by the steepest secant slope over
+/// those samples (`|f(p)| · r / max |f(p ± r·e_k)|`): where the surface
+/// touches zero without crossing it (tangent spheres), `f` keeps its sign
+/// around a point of the zero set.
+fn zero_near(s: &Surface, p: DVec3, r: f64, tol: f64) -> bool {
     let f = |q: DVec3| s.point([q.x, q.y, q.z, 0.0]);
     let v = f(p);
     if v == 0.0 {
         return true;
     }
-    (0..3).any(|k| {
-        [-1.0, 1.0].iter().any(|&d| {
-            let mut q = p;
-            q[k] += d * r;
-            let w = f(q);
-            w == 0.0 || (w < 0.0) != (v < 0.0)
+    let around: Vec<f64> = (0..3)
+        .flat_map(|k| {
+            [-1.0, 1.0].map(|d| {
+                let mut q = p;
+                q[k] += d * r;
+                f(q)
+            })
         })
-    })
+        .collect();
+    let slope = around.iter().map(|w| (w - v).abs() / r).fold(0.0, f64::max);
+    around.iter().any(|&w| w == 0.0 || (w < 0.0) != (v < 0.0)) || v.abs() <= tol * slope
 }
 
 /// Per vertex, the area-weighted normal of its fan (zero when unused).
