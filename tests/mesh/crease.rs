@@ -110,6 +110,17 @@ fn check_same_topology(sharp: &MeshReport, plain: &MeshReport) {
     assert_eq!(sharp.topology.misoriented_edges, 0);
 }
 
+/// `s` at a uniform `level` without and with creases, after checking that
+/// both have the same topology, of one component of genus `genus`: the
+/// plain mesh, the sharpened one and its report.
+fn sharpened(s: &Surface, level: u8, genus: i64) -> (Mesh, Mesh, MeshReport) {
+    let (plain, rp) = mesh(s, level, false);
+    let (sharp, rs) = mesh(s, level, true);
+    check_same_topology(&rs, &rp);
+    assert_eq!(rs.topology.genus, vec![Some(genus)]);
+    (plain, sharp, rs)
+}
+
 #[test]
 fn a_cube_keeps_its_edges_and_corners() {
     let s = surface(CUBE);
@@ -421,10 +432,7 @@ fn a_drilled_slab_keeps_the_rims_of_its_hole() {
                      0.25 - sqrt(x^2 + z^2));",
     );
     let level = 7;
-    let (plain, rp) = mesh(&s, level, false);
-    let (sharp, rs) = mesh(&s, level, true);
-    check_same_topology(&rs, &rp);
-    assert_eq!(rs.topology.genus, vec![Some(1)]);
+    let (plain, sharp, rs) = sharpened(&s, level, 1);
     assert!(rs.crease_vertices > 0 && sharp.positions.len() > plain.positions.len());
     let cell = 2.0 / f64::from(1u32 << level);
     let e = chord_errors(&sharp, |p| first_order(&s, p, 0.0));
@@ -446,10 +454,7 @@ fn a_lens_keeps_its_rim() {
          surface max(sqrt((x - 0.55)^2 + y^2 + z^2), sqrt((x + 0.55)^2 + y^2 + z^2)) - 0.8;",
     );
     let level = 6;
-    let (_, rp) = mesh(&s, level, false);
-    let (sharp, rs) = mesh(&s, level, true);
-    check_same_topology(&rs, &rp);
-    assert_eq!(rs.topology.genus, vec![Some(0)]);
+    let (_, sharp, rs) = sharpened(&s, level, 0);
     assert!(rs.crease_vertices >= 40, "{}", rs.crease_vertices);
     let value = |p: DVec3| s.point([p.x, p.y, p.z, 0.0]);
     assert!(sharp.positions.iter().all(|&p| value(p).abs() < 1e-9));
@@ -473,10 +478,7 @@ fn a_steep_side_keeps_its_crease() {
     let s =
         surface("domain [-1, 1]^3; surface max(8 * (x - 0.3013), sqrt(x^2 + y^2 + z^2) - 0.8);");
     let level = 7;
-    let (_, rp) = mesh(&s, level, false);
-    let (sharp, rs) = mesh(&s, level, true);
-    check_same_topology(&rs, &rp);
-    assert_eq!(rs.topology.genus, vec![Some(0)]);
+    let (_, sharp, rs) = sharpened(&s, level, 0);
     assert!(rs.crease_vertices >= 300, "{}", rs.crease_vertices);
     let cell = 2.0 / f64::from(1u32 << level);
     let p = quantile(&chord_errors(&sharp, |p| first_order(&s, p, 0.0)), 0.999) / cell;
