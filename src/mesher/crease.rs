@@ -31,7 +31,13 @@
 //!    angle (the two sides' normals turn by more than 90°) and `f` keeps
 //!    the patch's sign on the way there (`wedge_tip`: the dual grid's
 //!    samples miss such a tip where the wedge is thinner than a cell, and
-//!    the patch across it stands up to a cell short of it);
+//!    the patch across it stands up to a cell short of it); on a blade
+//!    (normals turning by more than 155° or so, where the error's matrix
+//!    has one direction left and the solve stays at the mean, between the
+//!    sides) it is where the two sides' planes meet, nearest the mean
+//!    ([`sides_meet`]), up to `1.5/tan(θ/2)` sides of the box past it for
+//!    an opening angle `θ` (at most 8; [`blade_room`]), with `f` keeping
+//!    the patch's sign on the way there as for a wedge's tip;
 //! 2. moved onto `f = 0` ([`crate::roots::project`], to bisection
 //!    precision; where the gradient line finds no zero, along the
 //!    bisector of the two normals that differ most, [`line_zero`]), it
@@ -46,6 +52,10 @@
 //!    the way towards one of them and a tenth towards the other, they
 //!    differ by 0.8 of the gap (`STEEPER`: the steeper side's values meet
 //!    the other's off the point);
+//!    where the fan below folds over a boundary edge with both ends on one
+//!    side of the crease, the point first slides along the crease to
+//!    where none does ([`fan_slide`]), if it stays on `f = 0` and in its
+//!    room there;
 //! 3. the fan — one triangle `(a, b, q)` per boundary edge `a → b` of the
 //!    patch, so it keeps the patch's orientation — has no degenerate
 //!    triangle and each triangle faces along the surface normals at `a`
@@ -88,7 +98,9 @@
 //!
 //! Sheets with an MC33 tunnel are left as they are, and so are creases
 //! that need more than one feature point in
-//! a cell (two creases through one cell), and grazed cells with no
+//! a cell (two creases through one cell, or one whose patch's two sides
+//! are offset along it so far that no point on it fans both: 2 of 1,100
+//! cells on a blade of 20° at depth 8), and grazed cells with no
 //! neighbouring feature point to merge into (a corner whose point lies
 //! outside a small cell often is one). A fan is tested against its own
 //! cell's surface normals and bounding box, not against other cells'
@@ -184,6 +196,9 @@ struct Candidate {
     /// The boundary edge on ∂Ω the point splits, where the crease leaves
     /// Ω ([`exit`]): it gets no fan triangle.
     exit: Option<(u32, u32)>,
+    /// The point's normal where its sides' normals turn by more than
+    /// [`BISECTED_DEG`]: their bisector.
+    normal: Option<DVec3>,
 }
 
 impl Candidate {
@@ -372,6 +387,11 @@ pub fn sharpen<E: Evaluator + ?Sized>(
         })
         .collect();
     orient_at_kinks(f, t, &new_points, &mut mesh.normals[n0..], &outward);
+    for (k, c) in candidates.iter().enumerate() {
+        if let Some(n) = c.normal {
+            mesh.normals[n0 + k] = n;
+        }
+    }
     let mut tris: Vec<[u32; 3]> = mesh
         .triangles
         .iter()
@@ -679,6 +699,7 @@ fn candidate<E: Evaluator + ?Sized>(
             point: q,
             unmerged: None,
             exit,
+            normal: bisected([normals[far[0]], normals[far[1]]]),
         }))
     };
     if let ([dir], true) = (free.as_slice(), p.is_finite())
@@ -690,13 +711,27 @@ fn candidate<E: Evaluator + ?Sized>(
     let within = |x: DVec3, room: f64| {
         x.cmpge(lo - DVec3::splat(room)).all() && x.cmple(hi + DVec3::splat(room)).all()
     };
+    let sides = [normals[far[0]], normals[far[1]]];
+    // The crease's direction: the error's free one, or a blade's edge.
+    let mut along = (free.len() == 1).then(|| free[0]);
     // Along a crease (one free direction) the point may slide along it
     // into the box; the tip of a wedge may lie past it.
     let mut room = 0.0;
+    if free.len() == 2 && p.is_finite() && sides[0].dot(sides[1]) < 0.0 {
+        // A blade: its sides' planes are too near parallel for the error's
+        // matrix, which keeps the point at the mean, between them.
+        let tip = sides_meet(&pos, &normals, far, mean)?;
+        room = blade_room(gap) * side;
+        if !within(tip, room) || !wedge_tip(f, t, mean, tip, sides) {
+            return None;
+        }
+        p = tip;
+        along = Some(sides[0].cross(sides[1]).normalize_or_zero());
+    }
     if free.len() == 1 && p.is_finite() && !within(p, 0.0) {
         match slide_into(p, free[0], lo, hi) {
             Some(x) => p = x,
-            None if wedge_tip(f, t, mean, p, [normals[far[0]], normals[far[1]]]) => {
+            None if wedge_tip(f, t, mean, p, sides) => {
                 room = WEDGE_ROOM * side;
             }
             None => return grazed(),
@@ -710,12 +745,133 @@ fn candidate<E: Evaluator + ?Sized>(
     // hardly at all near a right angle, the wrong way past it. From a
     // point off both sides (a lens's rim: 87°), the bisector of the
     // normals reaches the surface where that line does not.
-    let bisector = (normals[far[0]] + normals[far[1]]).normalize_or_zero();
+    let bisector = (sides[0] + sides[1]).normalize_or_zero();
     let q = project(f, t, p, 0.1 * side).or_else(|| line_zero(f, t, p, bisector, 0.1 * side))?;
-    if !within(q, room + SLIDE_INSET * side) || q.distance(p) > 0.1 * side {
+    let fits = |q: &DVec3| within(*q, room + SLIDE_INSET * side);
+    if !fits(&q) || q.distance(p) > 0.1 * side {
         return None;
     }
-    feature(q, None)
+    // Slid along its crease to where its fan faces the right way, if it
+    // does not there (and the slid point, back on `f = 0`, still fits).
+    let slid = along
+        .and_then(|d| fan_slide(mesh, &cycle, q, d))
+        .filter(|&s| s != 0.0)
+        .and_then(|s| project(f, t, q + along.unwrap_or_default() * s, 0.1 * side))
+        .filter(fits);
+    feature(slid.unwrap_or(q), None)
+}
+
+/// Past this turn between a crease's two sides, its feature point's
+/// normal is their bisector ([`bisected`]).
+const BISECTED_DEG: f64 = 120.0;
+
+/// The bisector of a crease's sides' normals `sides` where they turn by
+/// more than [`BISECTED_DEG`]. The gradient at the point is one side's,
+/// and there more than 120° off the other side's triangles of its fan: on
+/// colonnade.vm's flutes (sides 162° apart) at level 6, 11 feature points'
+/// normals faced against their fans' (area-weighted) normals.
+fn bisected(sides: [DVec3; 2]) -> Option<DVec3> {
+    let turn = sides[0].dot(sides[1]).clamp(-1.0, 1.0).acos();
+    let n = (sides[0] + sides[1]).normalize_or_zero();
+    (turn > BISECTED_DEG.to_radians() && n != DVec3::ZERO).then_some(n)
+}
+
+/// How far past its cell's box a blade's tip may lie, in sides of the
+/// box's smallest side, where its sides' normals turn by `gap`: the patch
+/// across a blade of opening angle `θ = π − gap` stands where the blade is
+/// as thick as the dual grid's spacing (up to two cells), `1/tan(θ/2)`
+/// such spacings from the tip; [`BLADE_REACH`] of that, at most
+/// [`BLADE_FAR`].
+fn blade_room(gap: f64) -> f64 {
+    let half = 0.5 * (std::f64::consts::PI - gap);
+    (BLADE_REACH / half.tan()).min(BLADE_FAR)
+}
+
+/// See [`blade_room`]. On a blade of 20° whose edge is skew to the grid
+/// (`benches/peers/surfaces/blade20.iso`, depth 7), 1, 1.5 and 2 gave the
+/// same mesh; a flat room of one side (the wedge's, [`WEDGE_ROOM`]) left
+/// 48 of 539 crease points out.
+const BLADE_REACH: f64 = 1.5;
+
+/// See [`blade_room`].
+const BLADE_FAR: f64 = 8.0;
+
+/// Where the planes of a patch's two sides meet, nearest `mean`: each
+/// side's plane through the mean position of its vertices (those whose
+/// normals lie nearer `normals[far[k]]` than the other), along their mean
+/// normal. On a blade sharper than about 25° the error's matrix has one
+/// eigenvalue above [`TRUNCATE`] of the largest, so [`truncated_solve`]
+/// leaves the point at the mean; two planes still meet where the blade's
+/// edge is (exactly, on a flat-sided blade). `None` where the planes are
+/// parallel.
+fn sides_meet(pos: &[DVec3], normals: &[DVec3], far: [usize; 2], mean: DVec3) -> Option<DVec3> {
+    let mut planes = [(DVec3::ZERO, DVec3::ZERO, 0.0); 2];
+    for (p, n) in pos.iter().zip(normals) {
+        let k = usize::from(n.dot(normals[far[1]]) > n.dot(normals[far[0]]));
+        planes[k].0 += *p;
+        planes[k].1 += *n;
+        planes[k].2 += 1.0;
+    }
+    let [(c1, n1, k1), (c2, n2, k2)] = planes;
+    let (n1, n2) = (n1.normalize_or_zero(), n2.normalize_or_zero());
+    let (r1, r2) = (n1.dot(c1 / k1 - mean), n2.dot(c2 / k2 - mean));
+    // mean + a n1 + b n2 on both planes: a + d b = r1, d a + b = r2.
+    let d = n1.dot(n2);
+    let det = 1.0 - d * d;
+    if det.is_nan() || det <= 1e-6 {
+        return None;
+    }
+    let x = mean + n1 * ((r1 - d * r2) / det) + n2 * ((r2 - d * r1) / det);
+    x.is_finite().then_some(x)
+}
+
+/// The shift `s` along the unit crease direction `d` after which every
+/// fan triangle `(a, b, q + s d)` over a boundary edge `a → b` of `cycle`
+/// whose ends lie on one side of the crease (within [`SPLIT_DEG`]) faces
+/// along both ends' normals (each such condition is linear in `s`): 0
+/// where `q` passes already, else the end of the feasible interval nearest
+/// 0, moved a tenth of the interval into it (one hundredth of the longest
+/// edge where the interval is unbounded); `None` where no shift passes.
+/// On a crease that crosses the cell's patch askew, the point nearest the
+/// patch's mean can lie past a radial boundary edge, and its fan fold over
+/// it (a fan that fails [`faces`], and the cell keeps its chamfer).
+fn fan_slide(mesh: &Mesh, cycle: &[(u32, u32)], q: DVec3, d: DVec3) -> Option<f64> {
+    let cos_split = SPLIT_DEG.to_radians().cos();
+    let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+    let mut longest = 0.0_f64;
+    for &(a, b) in cycle {
+        let (na, nb) = (mesh.normals[a as usize], mesh.normals[b as usize]);
+        let (pa, pb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
+        let e = pb - pa;
+        longest = longest.max(e.length());
+        if na.dot(nb) <= cos_split {
+            continue;
+        }
+        for n in [na, nb] {
+            // (e × (q + s d − a))·n = c + g s > 0.
+            let (c, g) = (e.cross(q - pa).dot(n), e.cross(d).dot(n));
+            if g > 0.0 {
+                lo = lo.max(-c / g);
+            } else if g < 0.0 {
+                hi = hi.min(-c / g);
+            } else if c <= 0.0 {
+                return None;
+            }
+        }
+    }
+    if lo.is_nan() || hi.is_nan() || lo >= hi {
+        return None;
+    }
+    if lo < 0.0 && 0.0 < hi {
+        return Some(0.0);
+    }
+    let margin = if hi - lo < f64::INFINITY {
+        0.1 * (hi - lo)
+    } else {
+        0.01 * longest
+    };
+    let s = if lo >= 0.0 { lo + margin } else { hi - margin };
+    s.is_finite().then_some(s)
 }
 
 /// How far past its cell's box the tip of a wedge may lie, in sides of the

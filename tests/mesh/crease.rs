@@ -484,3 +484,33 @@ fn a_steep_side_keeps_its_crease() {
     let p = quantile(&chord_errors(&sharp, |p| first_order(&s, p, 0.0)), 0.999) / cell;
     assert!(p < 0.05, "99.9th percentile {p} cells");
 }
+
+/// A blade of 20° (two planes whose normals turn by 160°), cut by a box,
+/// its edge skew to the grid.
+const BLADE: &str = "domain [-1, 1]^3;
+let a = 0.127574212*(x - 0.013) + 0.219566284*(y + 0.021) - 0.967220485*(z - 0.007);
+let b = -0.227369085*(x - 0.013) + 0.113083294*(y + 0.021) + 0.967220485*(z - 0.007);
+surface max(max(a, b), max(max(abs(x), abs(y)), abs(z)) - 0.7);";
+
+/// A blade keeps its edge: its sides' planes are so near parallel that
+/// the error's matrix keeps a crease point at its patch's mean, inside the
+/// blade, and the patch across it stands where the blade is as thick as a
+/// cell, 3 to 6 cells short of the edge. Now the sides' planes meet at the
+/// edge, and the point slides along it to where its fan faces the right
+/// way. Before, at level 7, 430 cells got a feature point, the 99.9th
+/// percentile of the centroids' first-order distance was 0.33 cells and
+/// 319 centroids stood more than 0.05 cells off; since, 614, 0 (to
+/// rounding) and 18. Same topology as without creases.
+#[test]
+fn a_blade_keeps_its_edge() {
+    let s = surface(BLADE);
+    let level = 7;
+    let (_, sharp, rs) = sharpened(&s, level, 0);
+    let cell = 2.0 / f64::from(1u32 << level);
+    let e = chord_errors(&sharp, |p| first_order(&s, p, 0.0));
+    assert!(rs.crease_vertices >= 550, "{}", rs.crease_vertices);
+    let p = quantile(&e, 0.999) / cell;
+    assert!(p < 0.01, "99.9th percentile {p} cells");
+    let off = e.iter().filter(|&&x| x > 0.05 * cell).count();
+    assert!(off <= 40, "{off} centroids more than 0.05 cells off");
+}
