@@ -746,7 +746,10 @@ fn candidate<E: Evaluator + ?Sized>(
     // point off both sides (a lens's rim: 87°), the bisector of the
     // normals reaches the surface where that line does not.
     let bisector = (sides[0] + sides[1]).normalize_or_zero();
-    let q = project(f, t, p, 0.1 * side).or_else(|| line_zero(f, t, p, bisector, 0.1 * side))?;
+    let onto = |x: DVec3| {
+        project(f, t, x, 0.1 * side).or_else(|| line_zero(f, t, x, bisector, 0.1 * side))
+    };
+    let q = onto(p)?;
     let fits = |q: &DVec3| within(*q, room + SLIDE_INSET * side);
     if !fits(&q) || q.distance(p) > 0.1 * side {
         return None;
@@ -756,7 +759,7 @@ fn candidate<E: Evaluator + ?Sized>(
     let slid = along
         .and_then(|d| fan_slide(mesh, &cycle, q, d))
         .filter(|&s| s != 0.0)
-        .and_then(|s| project(f, t, q + along.unwrap_or_default() * s, 0.1 * side))
+        .and_then(|s| onto(q + along.unwrap_or_default() * s))
         .filter(fits);
     feature(slid.unwrap_or(q), None)
 }
