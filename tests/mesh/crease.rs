@@ -499,8 +499,8 @@ surface max(max(a, b), max(max(abs(x), abs(y)), abs(z)) - 0.7);";
 /// edge, and the point slides along it to where its fan faces the right
 /// way. Before, at level 7, 430 cells got a feature point, the 99.9th
 /// percentile of the centroids' first-order distance was 0.33 cells and
-/// 319 centroids stood more than 0.05 cells off; since, 614, 0 (to
-/// rounding) and 18. Same topology as without creases.
+/// 319 centroids stood more than 0.05 cells off; since, 616, 0 (to
+/// rounding) and 7. Same topology as without creases.
 #[test]
 fn a_blade_keeps_its_edge() {
     let s = surface(BLADE);
@@ -512,5 +512,5 @@ fn a_blade_keeps_its_edge() {
     let p = quantile(&e, 0.999) / cell;
     assert!(p < 0.01, "99.9th percentile {p} cells");
     let off = e.iter().filter(|&&x| x > 0.05 * cell).count();
-    assert!(off <= 40, "{off} centroids more than 0.05 cells off");
+    assert!(off <= 20, "{off} centroids more than 0.05 cells off");
 }
