@@ -771,7 +771,7 @@ const BISECTED_DEG: f64 = 120.0;
 /// The bisector of a crease's sides' normals `sides` where they turn by
 /// more than [`BISECTED_DEG`]. The gradient at the point is one side's,
 /// and there more than 120° off the other side's triangles of its fan: on
-/// colonnade.vm's flutes (sides 162° apart) at level 6, 11 feature points'
+/// colonnade.vm (sides 162° apart, about x = 0.78) at level 6, 11 feature points'
 /// normals faced against their fans' (area-weighted) normals.
 fn bisected(sides: [DVec3; 2]) -> Option<DVec3> {
     let turn = sides[0].dot(sides[1]).clamp(-1.0, 1.0).acos();
@@ -792,8 +792,8 @@ fn blade_room(gap: f64) -> f64 {
 
 /// See [`blade_room`]. On a blade of 20° whose edge is skew to the grid
 /// (`benches/peers/surfaces/blade20.iso`, depth 7), 1, 1.5 and 2 gave the
-/// same mesh; a flat room of one side (the wedge's, [`WEDGE_ROOM`]) left
-/// 48 of 539 crease points out.
+/// same mesh, with no blade point out of reach; a flat room of one side
+/// (the wedge's, [`WEDGE_ROOM`]) left 48 cells' points out of it.
 const BLADE_REACH: f64 = 1.5;
 
 /// See [`blade_room`].
