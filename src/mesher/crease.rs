@@ -757,9 +757,12 @@ fn candidate<E: Evaluator + ?Sized>(
     // Slid along its crease to where its fan faces the right way, if it
     // does not there (and the slid point, back on `f = 0`, still fits).
     let slid = along
-        .and_then(|d| fan_slide(mesh, &cycle, q, d))
-        .filter(|&s| s != 0.0)
-        .and_then(|s| onto(q + along.unwrap_or_default() * s))
+        .and_then(|d| {
+            fan_slide(mesh, &cycle, q, d)
+                .filter(|&s| s != 0.0)
+                .map(|s| q + d * s)
+        })
+        .and_then(onto)
         .filter(fits);
     feature(slid.unwrap_or(q), None)
 }
