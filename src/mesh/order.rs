@@ -57,6 +57,33 @@ impl Mesh {
         new_of_old
     }
 
+    /// Drops the vertices no triangle uses, keeping the others in order,
+    /// and renumbers the triangles; returns which vertices stayed (for the
+    /// caller's own per-vertex data, [`retain`]).
+    pub fn drop_unused(&mut self) -> Vec<bool> {
+        let mut used = vec![false; self.positions.len()];
+        for t in &self.triangles {
+            for &v in t {
+                used[v as usize] = true;
+            }
+        }
+        let mut index = vec![u32::MAX; used.len()];
+        let mut next = 0u32;
+        for (v, &u) in used.iter().enumerate() {
+            if u {
+                index[v] = next;
+                next += 1;
+            }
+        }
+        retain(&mut self.positions, &used);
+        retain(&mut self.normals, &used);
+        retain(&mut self.ambiguous, &used);
+        for t in &mut self.triangles {
+            *t = t.map(|v| index[v as usize]);
+        }
+        used
+    }
+
     /// Sorts the triangles by their lowest corner, stably (a counting
     /// sort: linear in the mesh).
     fn sort_triangles_by_lowest_corner(&mut self) {

@@ -192,7 +192,10 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
         let n0 = mesh.positions.len();
         let c = crease::sharpen(&mut mesh, &cell_of, &bounds, &domain, &field, t);
         name_crease_points(&mut origins, brick, &mesh.positions[n0..], domain, n0);
-        (c.feature, c.cells)
+        let (mut feature, used) = (c.feature, mesh.drop_unused());
+        retain(&mut feature, &used);
+        origins.retain(&used);
+        (feature, c.cells)
     } else {
         (vec![false; mesh.positions.len()], 0)
     };

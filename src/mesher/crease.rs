@@ -14,11 +14,16 @@
 //! Each sheet of a dual cell's patch (a component: where two sheets cross
 //! or touch, as `x y = 0`'s along its axis, a cell holds one piece of
 //! each, and each gets its own point on the line) is sharpened when it is
-//! one disk whose vertices are
-//! all cell-edge vertices (no MC33 interior vertex), the surface normals at
-//! those vertices fall into two or three clusters more than [`SPLIT_DEG`]
-//! degrees apart, the gap at least `GAP_RATIO` times the largest angle
-//! inside a cluster (a crease between them), and
+//! one disk (whose boundary vertices are cell-edge vertices; MC33's
+//! interior vertices inside it go with its triangles, left unused for the
+//! caller to drop: [`crate::mesh::Mesh::drop_unused`]), the surface
+//! normals at its boundary vertices fall into two or three clusters more
+//! than [`SPLIT_DEG`] degrees apart, the gap at least `GAP_RATIO` times
+//! the largest angle inside a cluster (a crease between them) — or, at
+//! the tip of a cone, turn by more than [`SPLIT_DEG`] in no such clusters
+//! (a ring of normals around a singular point where the gradient
+//! vanishes, as the double cone's apex; four or more clusters, as a
+//! pyramid's apex) — and
 //!
 //! 1. the feature point — the least-squares intersection of the vertices'
 //!    tangent planes (a quadratic error function solved from the vertices'
@@ -37,10 +42,17 @@
 //!    sides) it is where the two sides' planes meet, nearest the mean
 //!    ([`sides_meet`]), up to `1.5/tan(θ/2)` sides of the box past it for
 //!    an opening angle `θ` (at most 8; [`blade_room`]), with `f` keeping
-//!    the patch's sign on the way there as for a wedge's tip;
+//!    the patch's sign on the way there as for a wedge's tip; at a cone's
+//!    tip the error's matrix keeps every direction, and the point (where
+//!    the tangent planes meet) may lie as far past the box as a blade's
+//!    edge of the same opening, with `f` keeping the patch's sign on the
+//!    way there;
 //! 2. moved onto `f = 0` ([`crate::roots::project`], to bisection
 //!    precision; where the gradient line finds no zero, along the
-//!    bisector of the two normals that differ most, [`line_zero`]), it
+//!    bisector of the two normals that differ most, [`line_zero`]; where
+//!    neither does, as at a cone's tip where `f` keeps its sign along
+//!    both, the nearest sign change towards the patch or along an axis,
+//!    in the reaches of `TOUCH`), it
 //!    moves less than a tenth of the box's smallest side
 //!    and stays in the box (up to rounding room, `SLIDE_INSET` of the
 //!    side, past the room a wedge's tip has), and it is a kink of f, not a
@@ -164,6 +176,12 @@ const FARTHER_SHARE: f64 = 0.8;
 /// in a smooth union drilled by a cylinder at level 8: `docs/faithful.md`).
 const SLIDE_INSET: f64 = 0.01;
 
+/// The reaches, in its box's smallest sides, within which a feature point
+/// looks for a zero of `f` by sign changes alone, nearest first, where
+/// its gradient lines find none (a cone's tip, where the gradient
+/// vanishes).
+const TOUCH: [f64; 4] = [1e-6, 1e-4, 1e-2, 0.1];
+
 /// Eigenvalues of the error's matrix below this share of the largest are
 /// truncated (directions along a crease, or the free directions of a flat
 /// patch).
@@ -243,7 +261,10 @@ fn faces(mesh: &Mesh, [a, b]: [u32; 2], p: [DVec3; 3]) -> bool {
 
 /// Sharpens the creases of `mesh` (see the module doc). `cell_of[i]` is the
 /// dual cell of triangle `i` (triangles of one cell consecutive), `bounds`
-/// a cell's bounding box (low and high corners).
+/// a cell's bounding box (low and high corners). The vertices keep their
+/// indices and the feature points follow them; MC33's interior vertices of
+/// the patches replaced by fans are left without triangles
+/// ([`crate::mesh::Mesh::drop_unused`] drops them).
 pub fn sharpen<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     cell_of: &[u32],
@@ -544,15 +565,7 @@ fn settle<E: Evaluator + ?Sized>(
 /// the largest angle inside a cluster; and the two normals farthest apart.
 fn crease_gap(normals: &[DVec3]) -> Option<(f64, [usize; 2])> {
     // Compared as dot products (cosines) until the end.
-    let mut far = (0, 0, 2.0);
-    for (i, a) in normals.iter().enumerate() {
-        for (j, b) in normals.iter().enumerate().skip(i + 1) {
-            let d = a.dot(*b);
-            if d < far.2 {
-                far = (i, j, d);
-            }
-        }
-    }
+    let far = farthest(normals);
     let split = SPLIT_DEG.to_radians();
     let cos_split = split.cos();
     if far.2 > cos_split {
@@ -586,6 +599,33 @@ fn crease_gap(normals: &[DVec3]) -> Option<(f64, [usize; 2])> {
     let angle = |c: f64| c.clamp(-1.0, 1.0).acos();
     let (inside, across) = (angle(inside), angle(across));
     (across > split && across > GAP_RATIO * inside).then_some((across, [far.0, far.1]))
+}
+
+/// The two unit normals farthest apart: their indices and the cosine of
+/// the angle between them.
+fn farthest(normals: &[DVec3]) -> (usize, usize, f64) {
+    let mut far = (0, 0, 2.0);
+    for (i, a) in normals.iter().enumerate() {
+        for (j, b) in normals.iter().enumerate().skip(i + 1) {
+            let d = a.dot(*b);
+            if d < far.2 {
+                far = (i, j, d);
+            }
+        }
+    }
+    far
+}
+
+/// The spread of normals that fall into no two or three clusters (see
+/// [`crease_gap`]) but turn by more than [`SPLIT_DEG`]: the angle between
+/// the two farthest apart, and those two. Around the tip of a cone (the
+/// double cone's apex, Ding-Dong's singular point, a pyramid's apex where
+/// four or more planes meet) they form a ring, or more than three
+/// clusters, and every tangent plane passes through the tip.
+fn spread(normals: &[DVec3]) -> Option<(f64, [usize; 2])> {
+    let (i, j, d) = farthest(normals);
+    let angle = d.clamp(-1.0, 1.0).acos();
+    (angle > SPLIT_DEG.to_radians()).then_some((angle, [i, j]))
 }
 
 /// The triangles `tris` of one cell grouped into sheets: the components of
@@ -637,20 +677,18 @@ fn candidate<E: Evaluator + ?Sized>(
     {
         return None;
     }
-    let mut verts: Vec<u32> = patch.iter().flatten().copied().collect();
-    verts.sort_unstable();
-    verts.dedup();
-    // A crease: the normals fall into clusters.
-    let normals: Vec<DVec3> = verts.iter().map(|&v| mesh.normals[v as usize]).collect();
-    if normals
-        .iter()
-        .any(|n| !n.is_finite() || (n.length_squared() - 1.0).abs() > 1e-6)
-    {
-        return None;
-    }
-    let (gap, far) = crease_gap(&normals)?;
+    let mut all: Vec<u32> = patch.iter().flatten().copied().collect();
+    all.sort_unstable();
+    all.dedup();
+    // The normals turn by more than the split angle somewhere (a bend of
+    // the patch does not count against a crease's clusters below, nor
+    // does an interior vertex; this only rules out the rest cheaply).
+    let turn: Vec<DVec3> = all.iter().map(|&v| mesh.normals[v as usize]).collect();
+    spread(&turn)?;
     // One disk: boundary edges (directed, not matched by their reverse)
-    // forming one cycle through every vertex, and V − E + F = 1.
+    // forming one simple cycle, and V − E + F = 1. Vertices off the cycle
+    // are MC33's interior vertices, which only this patch uses; the fan
+    // drops them.
     let directed: Vec<(u32, u32)> = patch
         .iter()
         .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
@@ -660,9 +698,9 @@ fn candidate<E: Evaluator + ?Sized>(
         .copied()
         .filter(|&(a, b)| !directed.contains(&(b, a)))
         .collect();
-    if boundary.len() != verts.len()
+    if boundary.is_empty()
         || !(3 * patch.len() + boundary.len()).is_multiple_of(2)
-        || verts.len() + patch.len() != (3 * patch.len() + boundary.len()) / 2 + 1
+        || all.len() + patch.len() != (3 * patch.len() + boundary.len()) / 2 + 1
     {
         return None;
     }
@@ -673,11 +711,24 @@ fn candidate<E: Evaluator + ?Sized>(
         cycle.push(*next);
         at = next.1;
     }
-    let mut starts: Vec<u32> = cycle.iter().map(|e| e.0).collect();
-    starts.sort_unstable();
-    if at != boundary[0].0 || starts != verts {
+    let mut verts: Vec<u32> = cycle.iter().map(|e| e.0).collect();
+    verts.sort_unstable();
+    verts.dedup();
+    if at != boundary[0].0 || verts.len() != cycle.len() {
         return None;
     }
+    // A crease: the cell-edge vertices' normals fall into clusters.
+    let normals: Vec<DVec3> = verts.iter().map(|&v| mesh.normals[v as usize]).collect();
+    if normals
+        .iter()
+        .any(|n| !n.is_finite() || (n.length_squared() - 1.0).abs() > 1e-6)
+    {
+        return None;
+    }
+    let clusters = crease_gap(&normals);
+    // No clusters: perhaps the tip of a cone (an apex).
+    let apex = clusters.is_none();
+    let (gap, far) = clusters.or_else(|| spread(&normals))?;
     // The feature point: the tangent planes' least-squares intersection.
     let [lo, hi] = bounds();
     let grazed = || Some(Cell::Grazed((tris.clone(), cycle.clone())));
@@ -717,6 +768,21 @@ fn candidate<E: Evaluator + ?Sized>(
     // Along a crease (one free direction) the point may slide along it
     // into the box; the tip of a wedge may lie past it.
     let mut room = 0.0;
+    if apex {
+        // The tangent planes meet at one point, the tip, which the dual
+        // grid's samples miss by up to where the cone is as thick as
+        // their spacing, as along a blade's edge.
+        room = blade_room(gap) * side;
+        let tip = [pos[far[0]], pos[far[1]]];
+        if !free.is_empty()
+            || !p.is_finite()
+            || !within(p, room)
+            || !kinks(f, t, p, tip, gap)
+            || !keeps_sign(f, t, mean, p)
+        {
+            return None;
+        }
+    }
     if free.len() == 2 && p.is_finite() && sides[0].dot(sides[1]) < 0.0 {
         // A blade: its sides' planes are too near parallel for the error's
         // matrix, which keeps the point at the mean, between them.
@@ -746,8 +812,21 @@ fn candidate<E: Evaluator + ?Sized>(
     // point off both sides (a lens's rim: 87°), the bisector of the
     // normals reaches the surface where that line does not.
     let bisector = (sides[0] + sides[1]).normalize_or_zero();
+    // Near a cone's tip the gradient vanishes and `f` keeps its sign along
+    // both lines; the nearest zero found towards the patch or along an
+    // axis, in reaches growing by [`TOUCH`] up to a tenth of the side, is
+    // on the cone within that reach of the tip.
+    let touching = |x: DVec3| {
+        TOUCH.iter().find_map(|reach| {
+            [mean - x, DVec3::X, DVec3::Y, DVec3::Z]
+                .into_iter()
+                .find_map(|d| line_zero(f, t, x, d, reach * side))
+        })
+    };
     let onto = |x: DVec3| {
-        project(f, t, x, 0.1 * side).or_else(|| line_zero(f, t, x, bisector, 0.1 * side))
+        project(f, t, x, 0.1 * side)
+            .or_else(|| line_zero(f, t, x, bisector, 0.1 * side))
+            .or_else(|| touching(x))
     };
     let q = onto(p)?;
     let fits = |q: &DVec3| within(*q, room + SLIDE_INSET * side);
@@ -892,10 +971,16 @@ const WEDGE_ROOM: f64 = 1.0;
 /// way from there to `p` (no other sheet lies between the patch and the
 /// tip).
 fn wedge_tip<E: Evaluator + ?Sized>(f: &E, t: f64, mean: DVec3, p: DVec3, far: [DVec3; 2]) -> bool {
+    far[0].dot(far[1]) < 0.0 && keeps_sign(f, t, mean, p)
+}
+
+/// Whether `f` keeps, at [`WEDGE_SAMPLES`] points on the way from a
+/// patch's `mean` to a point `p` past it (a wedge's or a cone's tip), the
+/// non-zero sign it has at the mean: no other sheet lies between them.
+fn keeps_sign<E: Evaluator + ?Sized>(f: &E, t: f64, mean: DVec3, p: DVec3) -> bool {
     let value = |x: DVec3| f.point(at(x, t));
     let inside = value(mean);
-    far[0].dot(far[1]) < 0.0
-        && inside != 0.0
+    inside != 0.0
         && (1..WEDGE_SAMPLES).all(|k| {
             let v = value(mean + (p - mean) * (k as f64 / WEDGE_SAMPLES as f64));
             v != 0.0 && (v < 0.0) == (inside < 0.0)

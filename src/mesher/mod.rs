@@ -268,7 +268,9 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     cancel.check()?;
     let mut creases = if opts.creases {
         let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
-        crease::sharpen(&mut mesh, &cell_of, &bounds, &domain, &field, t)
+        let mut c = crease::sharpen(&mut mesh, &cell_of, &bounds, &domain, &field, t);
+        retain(&mut c.feature, &mesh.drop_unused());
+        c
     } else {
         crease::Creases::default()
     };

@@ -47,6 +47,7 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use glam::DVec3;
 
 use crate::mesh::Mesh;
+use crate::mesh::order::retain;
 use crate::mesh::origin::Origins;
 
 /// Collapses the edges of `mesh` whose ends coincide (see the module doc);
@@ -116,7 +117,7 @@ pub fn weld_coincident_in(
             o.retain(&used);
         }
         if let Some(f) = feature {
-            retain_flagged(f, &used);
+            retain(f, &used);
         }
     }
     welded
@@ -250,35 +251,9 @@ impl Stars {
 /// no triangle uses, renumbering the rest in order; returns which vertices
 /// stayed.
 fn compact(mesh: &mut Mesh, cell_of: &mut Vec<u32>, alive: &[bool]) -> Vec<bool> {
-    retain_flagged(cell_of, alive);
-    retain_flagged(&mut mesh.triangles, alive);
-    let mut used = vec![false; mesh.positions.len()];
-    for t in &mesh.triangles {
-        for &v in t {
-            used[v as usize] = true;
-        }
-    }
-    let mut index = vec![u32::MAX; used.len()];
-    let mut next = 0u32;
-    for (v, &u) in used.iter().enumerate() {
-        if u {
-            index[v] = next;
-            next += 1;
-        }
-    }
-    retain_flagged(&mut mesh.positions, &used);
-    retain_flagged(&mut mesh.normals, &used);
-    retain_flagged(&mut mesh.ambiguous, &used);
-    for t in &mut mesh.triangles {
-        *t = t.map(|v| index[v as usize]);
-    }
-    used
-}
-
-/// Keeps the elements of `v` whose flag in `keep` is set, in order.
-fn retain_flagged<T>(v: &mut Vec<T>, keep: &[bool]) {
-    let mut flags = keep.iter();
-    v.retain(|_| flags.next().copied().unwrap_or(false));
+    retain(cell_of, alive);
+    retain(&mut mesh.triangles, alive);
+    mesh.drop_unused()
 }
 
 #[cfg(test)]

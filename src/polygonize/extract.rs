@@ -19,6 +19,17 @@
 //!   [`crate::roots::bisect`]), not by linear interpolation; the
 //!   interior vertices that MC33 adds for tunnels are mapped through the
 //!   dual cell's trilinear map and projected onto `f = 0`.
+//! - A tunnel that MC33 finds through a cell's interior (two corners of
+//!   one sign that the cell's faces keep apart, joined inside by the
+//!   trilinear interpolant) is kept only where `f` itself has that sign
+//!   along the straight segment between two such corners (sampled at
+//!   `THROUGH_SAMPLES − 1` points); elsewhere the cell's surface is two
+//!   discs ([`super::mc33::polygonize_checked`]). Eight values misread a
+//!   CSG crease through a dual cell whose corners come from leaves of
+//!   different sizes: a convex pyramid had tubes across its 130° edges (a
+//!   handle each). Faces are still decided by the asymptotic decider
+//!   (deciding them by `f` at their centres left edges with four
+//!   triangles where dual cells are degenerate: `docs/faithful.md`).
 //! - Triangles whose vertices repeat (degenerate dual cells map two cell
 //!   edges to one leaf pair) are dropped.
 //! - A vertex is *ambiguous* when a leaf of its dual edge (or, for interior
@@ -289,7 +300,7 @@ fn extract_in<E: Evaluator + ?Sized>(
             }
             for (i, cell) in cells.iter().enumerate() {
                 let ci = (chunk * CELLS_PER_TASK + i) as u32;
-                polygonize_cell(tree, ci, cell, values, &mut out);
+                polygonize_cell(tree, (f, t), ci, cell, values, &mut out);
             }
             out
         })
@@ -425,15 +436,24 @@ fn origins_of(tree: &Octree, active: &[DualCell], keys: &[Key]) -> Origins {
 }
 
 /// Polygonises active dual cell number `ci` into `out`.
-fn polygonize_cell(
+fn polygonize_cell<E: Evaluator + ?Sized>(
     tree: &Octree,
+    (f, t): (&E, f64),
     ci: u32,
     cell: &DualCell,
     values: &CornerValues,
     out: &mut CellsOutput,
 ) {
     let v: [f64; 8] = cell.map(|c| values.get(c));
-    let cm = mc33::polygonize(&v);
+    let through = |i: usize, j: usize| {
+        let (a, b) = (cell[i].position(tree), cell[j].position(tree));
+        (1..THROUGH_SAMPLES).all(|k| {
+            let x = a.lerp(b, k as f64 / THROUGH_SAMPLES as f64);
+            let fx = f.point([x.x, x.y, x.z, t]);
+            !fx.is_nan() && (fx < 0.0) == (v[i] < 0.0)
+        })
+    };
+    let cm = mc33::polygonize_checked(&v, &through);
     let mut keys = [Key(0); mc33::MAX_VERTS];
     for (k, vert) in cm.vertices().iter().enumerate() {
         keys[k] = match *vert {
@@ -458,6 +478,14 @@ fn polygonize_cell(
         }
     }
 }
+
+/// Intervals of the segment between two corners of a dual cell on which
+/// `f` is sampled to confirm that the trilinear interpolant's join of the
+/// two through the cell's interior is the function's
+/// ([`mc33::polygonize_checked`]): seven points, a straight channel of the
+/// corners' sign from one to the other.
+const THROUGH_SAMPLES: usize = 8;
+
 /// The point with cell coordinates `p` in the dual cell's trilinear map of
 /// its corner leaves' centres.
 fn trilinear_map(tree: &Octree, cell: &DualCell, p: DVec3) -> DVec3 {

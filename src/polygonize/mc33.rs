@@ -10,6 +10,10 @@
 //! JGT 2003) and it covers every face ambiguity (asymptotic decider, Nielson
 //! & Hamann 1991) and every interior ambiguity (tunnels of cases 4, 6, 7, 10,
 //! 12, 13 and all subcases of case 13, including 13.5.x).
+//! [`polygonize_checked`] lets the caller refuse a tunnel (a join of two
+//! corners through the interior) that the function it samples does not
+//! have; the cell's surface is then discs where the interpolant's is a
+//! tube.
 //!
 //! # Numbering
 //!
@@ -579,6 +583,19 @@ fn interior_unions(v: &[f64; 8], dsu: &mut Dsu<8>) {
 /// Polygonise one cell with corner values `values` (see the module doc for
 /// the numbering, the sign convention and the guarantee).
 pub fn polygonize(values: &[f64; 8]) -> CellMesh {
+    polygonize_checked(values, &|_, _| true)
+}
+
+/// [`polygonize`], with every join of two corners through the cell's
+/// interior — two corners of one sign that the cell's faces keep apart,
+/// and the trilinear interpolant joins inside (the tunnels of cases 4, 6,
+/// 7, 10, 12 and 13) — kept only where `through(i, j)` confirms it for
+/// some pair of corners `i`, `j` of the two classes. Where it does not,
+/// the surface there is two discs instead of a tube: the topology of the
+/// trilinear interpolant with that tunnel closed. A mesher passes a test
+/// of the function it samples, which the interpolant of eight values
+/// misreads where `f` has a kink (see [`super::extract`]).
+pub fn polygonize_checked(values: &[f64; 8], through: &dyn Fn(usize, usize) -> bool) -> CellMesh {
     let mut mesh = CellMesh::default();
     // `raw` decides edge parameters and faces (shared with the neighbours);
     // `v`, scaled for the cell, serves the interior analysis and geometry.
@@ -665,7 +682,24 @@ pub fn polygonize(values: &[f64; 8]) -> CellMesh {
         }
     }
     if several {
-        interior_unions(&v, &mut dsu);
+        let mut inner = Dsu::<8>(dsu.0);
+        interior_unions(&v, &mut inner);
+        for c in 1..8 {
+            for d in 0..c {
+                if inner.find(c) == inner.find(d)
+                    && dsu.find(c) != dsu.find(d)
+                    && (0..8).any(|i| {
+                        (0..8).any(|j| {
+                            dsu.find(i) == dsu.find(c)
+                                && dsu.find(j) == dsu.find(d)
+                                && through(i, j)
+                        })
+                    })
+                {
+                    dsu.union(c, d);
+                }
+            }
+        }
     }
 
     // Boundary loops, as lists of vertex ids, with their region pair.

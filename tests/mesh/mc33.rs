@@ -835,3 +835,61 @@ fn trilinear_helpers_agree() {
     assert!((trilinear(&v, p) - tl(&v, p.x, p.y, p.z)).abs() < 1e-12);
     let _ = mc33::MAX_TRIS;
 }
+
+/// A dual cell across a pyramid's 130° edge (`benches/peers/surfaces/pyramid4.iso`
+/// at level 8), whose corner of value 0.019 is the centre of a leaf four
+/// times as large: the interpolant joins that corner to the opposite
+/// positive one through the cell, and MC33 draws a tube where the solid is
+/// convex. Refused, the tunnel closes into two discs. Over random cells,
+/// refusing every tunnel leaves only discs and the same segments on every
+/// face (so the neighbours still agree), and accepting every one is
+/// [`polygonize`].
+#[test]
+fn a_refused_tunnel_closes_into_discs() {
+    let v = [
+        -0.000995, 0.000546, 0.000562, 0.019233, 0.001717, -0.004519, -0.002130, -0.004847,
+    ];
+    let tube = mesh_topology(&polygonize(&v));
+    assert_eq!(
+        tube,
+        Topology {
+            components: 1,
+            euler: 0
+        }
+    );
+    let discs = mesh_topology(&mc33::polygonize_checked(&v, &|_, _| false));
+    assert_eq!(
+        discs,
+        Topology {
+            components: 2,
+            euler: 2
+        }
+    );
+    let mut rng = Rng(0x7ab_0001);
+    let (mut tubes, mut closed) = (0, 0);
+    for _ in 0..50_000 {
+        let v = near_ambiguous_cell(&mut rng);
+        let (all, none) = (polygonize(&v), mc33::polygonize_checked(&v, &|_, _| false));
+        let same = mc33::polygonize_checked(&v, &|_, _| true);
+        assert_eq!(same.triangles(), all.triangles());
+        let (ta, tn) = (mesh_topology(&all), mesh_topology(&none));
+        assert_eq!(tn.euler, tn.components as i64, "{v:?}: {tn:?}");
+        for axis in 0..3 {
+            for side in 0..2 {
+                assert_eq!(
+                    face_sides(&none, axis, side),
+                    face_sides(&all, axis, side),
+                    "{v:?}"
+                );
+            }
+        }
+        if ta != tn {
+            tubes += 1;
+            closed += usize::from(tn.components > ta.components);
+        }
+    }
+    assert!(
+        tubes > 100 && closed == tubes,
+        "{tubes} tunnels, {closed} closed"
+    );
+}
