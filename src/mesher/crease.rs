@@ -655,6 +655,46 @@ fn sheets(triangles: &[[u32; 3]], tris: std::ops::Range<usize>) -> Vec<Vec<usize
         .collect()
 }
 
+/// A patch's boundary: directed edges `a → b`, each one's `b` the next
+/// one's `a`.
+type Cycle = Vec<(u32, u32)>;
+
+/// The boundary of `patch` (triangles over `vertices` distinct vertices)
+/// when it is one disk: its boundary edges (directed, not matched by their
+/// reverse) form one simple cycle, and V − E + F = 1. Returns the cycle,
+/// in the patch's orientation, and its vertices, sorted. Vertices off the
+/// cycle are MC33's interior vertices, which only this patch uses; a fan
+/// over the cycle drops them.
+fn disk(patch: &[[u32; 3]], vertices: usize) -> Option<(Cycle, Vec<u32>)> {
+    let directed: Vec<(u32, u32)> = patch
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .collect();
+    let boundary: Vec<(u32, u32)> = directed
+        .iter()
+        .copied()
+        .filter(|&(a, b)| !directed.contains(&(b, a)))
+        .collect();
+    let edges = (3 * patch.len() + boundary.len()) / 2;
+    if boundary.is_empty()
+        || !(3 * patch.len() + boundary.len()).is_multiple_of(2)
+        || vertices + patch.len() != edges + 1
+    {
+        return None;
+    }
+    let mut cycle = Vec::with_capacity(boundary.len());
+    let mut at = boundary[0].0;
+    for _ in 0..boundary.len() {
+        let next = boundary.iter().find(|e| e.0 == at)?;
+        cycle.push(*next);
+        at = next.1;
+    }
+    let mut verts: Vec<u32> = cycle.iter().map(|e| e.0).collect();
+    verts.sort_unstable();
+    verts.dedup();
+    (at == boundary[0].0 && verts.len() == cycle.len()).then_some((cycle, verts))
+}
+
 /// The sharpening candidate of one sheet of a cell's triangles, or `None` (steps 1
 /// and 2 of the module doc).
 fn candidate<E: Evaluator + ?Sized>(
@@ -677,46 +717,14 @@ fn candidate<E: Evaluator + ?Sized>(
     {
         return None;
     }
+    // Normals that turn by no more than the split angle hold neither a
+    // crease nor a cone's tip (a cheap test before the disk's).
     let mut all: Vec<u32> = patch.iter().flatten().copied().collect();
     all.sort_unstable();
     all.dedup();
-    // The normals turn by more than the split angle somewhere (a bend of
-    // the patch does not count against a crease's clusters below, nor
-    // does an interior vertex; this only rules out the rest cheaply).
     let turn: Vec<DVec3> = all.iter().map(|&v| mesh.normals[v as usize]).collect();
     spread(&turn)?;
-    // One disk: boundary edges (directed, not matched by their reverse)
-    // forming one simple cycle, and V − E + F = 1. Vertices off the cycle
-    // are MC33's interior vertices, which only this patch uses; the fan
-    // drops them.
-    let directed: Vec<(u32, u32)> = patch
-        .iter()
-        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-        .collect();
-    let boundary: Vec<(u32, u32)> = directed
-        .iter()
-        .copied()
-        .filter(|&(a, b)| !directed.contains(&(b, a)))
-        .collect();
-    if boundary.is_empty()
-        || !(3 * patch.len() + boundary.len()).is_multiple_of(2)
-        || all.len() + patch.len() != (3 * patch.len() + boundary.len()) / 2 + 1
-    {
-        return None;
-    }
-    let mut cycle = Vec::with_capacity(boundary.len());
-    let mut at = boundary[0].0;
-    for _ in 0..boundary.len() {
-        let next = boundary.iter().find(|e| e.0 == at)?;
-        cycle.push(*next);
-        at = next.1;
-    }
-    let mut verts: Vec<u32> = cycle.iter().map(|e| e.0).collect();
-    verts.sort_unstable();
-    verts.dedup();
-    if at != boundary[0].0 || verts.len() != cycle.len() {
-        return None;
-    }
+    let (cycle, verts) = disk(&patch, all.len())?;
     // A crease: the cell-edge vertices' normals fall into clusters.
     let normals: Vec<DVec3> = verts.iter().map(|&v| mesh.normals[v as usize]).collect();
     if normals
