@@ -24,6 +24,12 @@ impl Bounds {
         })
     }
 
+    /// Whether the point `p` lies in the closed box (a NaN coordinate does
+    /// not).
+    pub fn contains(&self, p: [f64; 3]) -> bool {
+        (0..3).all(|k| self.lo[k] <= p[k] && p[k] <= self.hi[k])
+    }
+
     /// The faces of the box the point `p` lies on, exactly (no tolerance:
     /// the mesher puts a point on a face by giving it the face's
     /// coordinate): two bits per axis `k`, bit `2k` for the low face and

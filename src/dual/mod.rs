@@ -71,7 +71,7 @@ impl Corner {
         for k in 0..3 {
             match (self.mirror >> (2 * k)) & 3 {
                 1 => p[k] = tree.lo[k],
-                2 => p[k] = tree.lo[k] + tree.size[k],
+                2 => p[k] = tree.hi[k],
                 _ => {}
             }
         }

@@ -49,6 +49,7 @@ pub mod interval;
 pub mod point;
 pub mod prune;
 pub mod sample;
+pub mod within;
 
 pub use grad::GradEval;
 

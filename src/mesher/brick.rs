@@ -48,6 +48,7 @@ use super::{MeshOptions, MeshReport, Stage, Timings, coarsen, crease, ms, smooth
 use crate::cancel::{Cancel, Cancelled};
 use crate::dual;
 use crate::eval::Evaluator;
+use crate::eval::within::Within;
 use crate::geometry::Bounds;
 use crate::mesh::order::{permute, retain};
 use crate::mesh::origin::{self, Origins};
@@ -189,13 +190,11 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
     weld::weld_coincident_in(&mut mesh, &mut cell_of, &on_seam, Some(&mut origins), None);
     let (mut feature, crease_cells) = if opts.creases {
         let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
-        let n0 = mesh.positions.len();
-        let c = crease::sharpen(&mut mesh, &cell_of, &bounds, &domain, &field, t);
-        name_crease_points(&mut origins, brick, &mesh.positions[n0..], domain, n0);
-        let (mut feature, used) = (c.feature, mesh.drop_unused());
-        retain(&mut feature, &used);
+        let name =
+            |m: &Mesh, n0| name_crease_points(&mut origins, brick, &m.positions[n0..], domain, n0);
+        let (c, used) = crease::sharpen(&mut mesh, &cell_of, &bounds, &domain, &field, t, name);
         origins.retain(&used);
-        (feature, c.cells)
+        (c.feature, c.cells)
     } else {
         (vec![false; mesh.positions.len()], 0)
     };
@@ -210,6 +209,8 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
     cancel.check()?;
     progress(Stage::Smooth);
     let t0 = Instant::now();
+    // As the whole run: vertices move and split within Ω only.
+    let field = Within::new(&field, domain);
     if let Some(tau) = tau
         && opts.smooth > 0
     {

@@ -118,7 +118,7 @@
 //! cell's surface normals and bounding box, not against other cells'
 //! triangles (no stage tests for self-intersection); a wedge's tip past
 //! the box is checked only along the segment from the patch's mean, by
-//! `WEDGE_SAMPLES` samples of `f`'s sign, so a sheet thinner than their
+//! `roots::SEGMENT_SAMPLES` − 1 samples of `f`'s sign, so a sheet thinner than their
 //! spacing between the patch and the tip is not seen. The normals at
 //! feature points are the gradient there (one side's, where f has a kink;
 //! just off the point along the patch's normals where the gradient
@@ -132,7 +132,8 @@ use crate::eval::Evaluator;
 use crate::eval::sample::{grads_at, orient_at_kinks};
 use crate::geometry::Bounds;
 use crate::mesh::Mesh;
-use crate::roots::{at, line_zero, project};
+use crate::mesh::order::retain;
+use crate::roots::{self, at, line_zero, project};
 
 /// Normals of one cell marking a crease: they fall into two or three
 /// clusters at least this many degrees apart ...
@@ -259,13 +260,34 @@ fn faces(mesh: &Mesh, [a, b]: [u32; 2], p: [DVec3; 3]) -> bool {
         }
 }
 
-/// Sharpens the creases of `mesh` (see the module doc). `cell_of[i]` is the
-/// dual cell of triangle `i` (triangles of one cell consecutive), `bounds`
-/// a cell's bounding box (low and high corners). The vertices keep their
-/// indices and the feature points follow them; MC33's interior vertices of
-/// the patches replaced by fans are left without triangles
-/// ([`crate::mesh::Mesh::drop_unused`] drops them).
+/// Sharpens the creases of `mesh` (see the module doc), then drops MC33's
+/// interior vertices of the patches that fans replaced
+/// ([`Mesh::drop_unused`]). `cell_of[i]` is the dual cell of triangle `i`
+/// (triangles of one cell consecutive), `bounds` a cell's bounding box (low
+/// and high corners). `added(mesh, n0)` sees the sharpened mesh before the
+/// drop, its feature points numbered from `n0` (a brick names them there);
+/// the second result says which of that mesh's vertices remain, in order.
 pub fn sharpen<E: Evaluator + ?Sized>(
+    mesh: &mut Mesh,
+    cell_of: &[u32],
+    bounds: &(dyn Fn(u32) -> [DVec3; 2] + Sync),
+    domain: &Bounds,
+    f: &E,
+    t: f64,
+    added: impl FnOnce(&Mesh, usize),
+) -> (Creases, Vec<bool>) {
+    let n0 = mesh.positions.len();
+    let mut creases = fan_patches(mesh, cell_of, bounds, domain, f, t);
+    added(mesh, n0);
+    let used = mesh.drop_unused();
+    retain(&mut creases.feature, &used);
+    (creases, used)
+}
+
+/// [`sharpen`] before the drop: the vertices keep their indices and the
+/// feature points follow them; the interior vertices of the patches
+/// replaced by fans are left without triangles.
+fn fan_patches<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     cell_of: &[u32],
     bounds: &(dyn Fn(u32) -> [DVec3; 2] + Sync),
@@ -837,7 +859,8 @@ fn candidate<E: Evaluator + ?Sized>(
             .or_else(|| touching(x))
     };
     let q = onto(p)?;
-    let fits = |q: &DVec3| within(*q, room + SLIDE_INSET * side);
+    // In the box and its room, and in Ω, where `f` is the surface's.
+    let fits = |q: &DVec3| within(*q, room + SLIDE_INSET * side) && domain.contains(q.to_array());
     if !fits(&q) || q.distance(p) > 0.1 * side {
         return None;
     }
@@ -982,21 +1005,13 @@ fn wedge_tip<E: Evaluator + ?Sized>(f: &E, t: f64, mean: DVec3, p: DVec3, far: [
     far[0].dot(far[1]) < 0.0 && keeps_sign(f, t, mean, p)
 }
 
-/// Whether `f` keeps, at [`WEDGE_SAMPLES`] points on the way from a
-/// patch's `mean` to a point `p` past it (a wedge's or a cone's tip), the
-/// non-zero sign it has at the mean: no other sheet lies between them.
+/// Whether `f` keeps, on the way from a patch's `mean` to a point `p`
+/// past it (a wedge's or a cone's tip), the non-zero sign it has at the
+/// mean ([`roots::keeps_sign`]): no other sheet lies between them.
 fn keeps_sign<E: Evaluator + ?Sized>(f: &E, t: f64, mean: DVec3, p: DVec3) -> bool {
-    let value = |x: DVec3| f.point(at(x, t));
-    let inside = value(mean);
-    inside != 0.0
-        && (1..WEDGE_SAMPLES).all(|k| {
-            let v = value(mean + (p - mean) * (k as f64 / WEDGE_SAMPLES as f64));
-            v != 0.0 && (v < 0.0) == (inside < 0.0)
-        })
+    let inside = f.point(at(mean, t));
+    inside != 0.0 && !inside.is_nan() && roots::keeps_sign(f, t, [mean, p], inside < 0.0)
 }
-
-/// Samples of `f` on the way from a patch to the tip of its wedge.
-const WEDGE_SAMPLES: usize = 8;
 
 /// A kink, not a bend, at the feature point `q`: near it, towards the two
 /// patch vertices `towards` whose normals differ most, the gradient still

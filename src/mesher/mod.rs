@@ -34,6 +34,7 @@ pub mod weld;
 
 use crate::cancel::{Cancel, Cancelled, uncancelled};
 use crate::eval::Evaluator;
+use crate::eval::within::Within;
 use crate::geometry::Bounds;
 use crate::mesh::order::{permute, retain};
 use crate::mesh::origin::Origins;
@@ -268,9 +269,7 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     cancel.check()?;
     let mut creases = if opts.creases {
         let bounds = |c: u32| extract::cell_bounds(&tree, &active[c as usize]);
-        let mut c = crease::sharpen(&mut mesh, &cell_of, &bounds, &domain, &field, t);
-        retain(&mut c.feature, &mesh.drop_unused());
-        c
+        crease::sharpen(&mut mesh, &cell_of, &bounds, &domain, &field, t, |_, _| ()).0
     } else {
         crease::Creases::default()
     };
@@ -283,6 +282,8 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     cancel.check()?;
     progress(Stage::Smooth);
     let t0 = Instant::now();
+    // Vertices move and split onto `f = 0` within Ω only.
+    let field = Within::new(&field, domain);
     if let Some(tau) = tau
         && opts.smooth > 0
     {

@@ -168,7 +168,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
         let tree = Octree {
             nodes: vec![Node::open(0, [0; 3])],
             lo: DVec3::from_array(domain.lo),
-            size: DVec3::from_array(domain.hi) - DVec3::from_array(domain.lo),
+            hi: DVec3::from_array(domain.hi),
             stats: OctreeStats::default(),
             tapes: Vec::new(),
         };

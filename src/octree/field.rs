@@ -85,7 +85,7 @@ impl<E: Evaluator + ?Sized> Field<'_, E> {
         // Written so that NaN coordinates fail the test.
         let inside = |a: DVec3, b: DVec3| (0..3).all(|k| a[k] <= p[k] && p[k] <= b[k]);
         // The point's cell at the deepest level, by integer coordinates.
-        let u = (p - tree.lo) / tree.size * self.scale;
+        let u = (p - tree.lo) / tree.size() * self.scale;
         if !(0..3).all(|k| u[k] >= 0.0 && u[k] <= self.scale) {
             return None;
         }

@@ -32,8 +32,9 @@ pub struct Octree {
     pub nodes: Vec<Node>,
     /// Lowest corner of the domain Ω (the root's box).
     pub lo: DVec3,
-    /// Extent of Ω along each axis (`hi - lo`).
-    pub size: DVec3,
+    /// Highest corner of Ω, exactly as given: the boxes on Ω's high faces
+    /// end there ([`Octree::cell_box`]).
+    pub hi: DVec3,
     /// Counts gathered while building.
     pub stats: OctreeStats,
     /// Per node, the pruned program that is valid on a leaf's box, when
@@ -59,12 +60,28 @@ impl Octree {
         Some(i)
     }
 
-    /// The box of a node, by the one formula shared by all nodes.
+    /// Extent of Ω along each axis.
+    pub fn size(&self) -> DVec3 {
+        self.hi - self.lo
+    }
+
+    /// The box of a node, by the one formula shared by all nodes: a grid
+    /// plane at the fraction `f` of Ω lies at `lo + size · f`, and Ω's high
+    /// faces at `hi` itself (where `lo + size` rounds past or short of it,
+    /// as `−1.2 + 1.5` does, a box would otherwise leave Ω or miss a sliver
+    /// of it, and points put on the face would not lie on it).
     pub fn cell_box(&self, n: &Node) -> (DVec3, DVec3) {
         let scale = (1u64 << n.level) as f64;
+        let size = self.size();
         let at = |k: [u32; 3]| {
-            let f = DVec3::new(k[0] as f64, k[1] as f64, k[2] as f64) / scale;
-            self.lo + self.size * f
+            DVec3::from_array(std::array::from_fn(|a| {
+                let f = k[a] as f64 / scale;
+                if f == 1.0 {
+                    self.hi[a]
+                } else {
+                    self.lo[a] + size[a] * f
+                }
+            }))
         };
         (at(n.ijk), at(n.ijk.map(|k| k + 1)))
     }

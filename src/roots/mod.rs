@@ -359,6 +359,26 @@ pub fn bisect_batch<E: Evaluator + ?Sized>(f: &E, t: f64, segments: &[Segment]) 
     out
 }
 
+/// Whether `f(·, t)` has one strict sign — negative when `negative`, else
+/// positive — at the [`SEGMENT_SAMPLES`] − 1 points that split the segment
+/// `[a, b]` into equal parts (its ends are not sampled): no sheet of the
+/// surface crosses it, as far as samples this far apart can tell. A zero
+/// or a NaN on the way fails.
+pub fn keeps_sign<E: Evaluator + ?Sized>(
+    f: &E,
+    t: f64,
+    [a, b]: [DVec3; 2],
+    negative: bool,
+) -> bool {
+    (1..SEGMENT_SAMPLES).all(|k| {
+        let v = f.point(at(a.lerp(b, k as f64 / SEGMENT_SAMPLES as f64), t));
+        if negative { v < 0.0 } else { v > 0.0 }
+    })
+}
+
+/// The parts [`keeps_sign`] splits a segment into.
+pub const SEGMENT_SAMPLES: usize = 8;
+
 /// A zero of `f(·, t)` on the line through `p` along `dir`, within `reach`
 /// of `p`: the line is stepped outward on both sides in eighths of
 /// `reach` until the sign changes, nearest first, and the bracket is

@@ -399,6 +399,10 @@ fn the_checks_catch_broken_meshes() {
     let mut m = mesh.clone();
     m.positions[0] *= 1.01;
     assert_eq!(checks(&m, false), ["on surface"]);
+    // A vertex moved out of Ω.
+    let mut m = mesh.clone();
+    m.positions[0].x = 1.0 + 1e-9;
+    assert!(checks(&m, false).contains(&"in domain"));
     // A vertex split in two on one sheet (and the mesh opened there).
     let mut m = mesh.clone();
     let t = m.triangles[0];

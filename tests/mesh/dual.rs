@@ -35,7 +35,7 @@ fn tree(max: u8, split: &dyn Fn(u8, [u32; 3]) -> bool) -> Octree {
     Octree {
         nodes,
         lo: DVec3::ZERO,
-        size: DVec3::ONE,
+        hi: DVec3::ONE,
         stats: OctreeStats::default(),
         tapes: Vec::new(),
     }

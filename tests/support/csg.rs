@@ -42,6 +42,7 @@
 //!   thin features: [`winding_mismatches`]);
 //! - **on surface**: `|f(v)| ≤ ON_SURFACE · h · |∇f(v)|` at every vertex,
 //!   `h` the finest cell;
+//! - **in domain**: every vertex in Ω (closed), where the surface is defined;
 //! - **degenerate**: no triangle with a repeated index or zero area;
 //! - **duplicated**: two vertices at the same position only where two
 //!   sheets touch (their fans face opposite ways);
@@ -903,6 +904,22 @@ pub fn check_mesh(
         if !ok {
             off.push((i, *p, v, g));
         }
+    }
+    // Vertices in Ω: the surface is only defined there.
+    let outside: Vec<(usize, &DVec3)> = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| !domain.contains(p.to_array()))
+        .collect();
+    if let Some((i, p)) = outside.first() {
+        fail(
+            "in domain",
+            format!(
+                "{} vertex(es) outside Ω, e.g. vertex {i} at {p}",
+                outside.len()
+            ),
+        );
     }
     if !off.is_empty() {
         let (i, p, v, g) = off[0];
