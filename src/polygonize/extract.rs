@@ -22,8 +22,8 @@
 //! - A tunnel that MC33 finds through a cell's interior (two corners of
 //!   one sign that the cell's faces keep apart, joined inside by the
 //!   trilinear interpolant) is kept only where `f` itself has that sign
-//!   along the straight segment between two such corners (sampled at
-//!   `THROUGH_SAMPLES − 1` points); elsewhere the cell's surface is two
+//!   along the straight segment between two such corners (at
+//!   `roots::SEGMENT_SAMPLES` − 1 points, [`crate::roots::keeps_sign`]); elsewhere the cell's surface is two
 //!   discs ([`super::mc33::polygonize_checked`]). Eight values misread a
 //!   CSG crease through a dual cell whose corners come from leaves of
 //!   different sizes: a convex pyramid had tubes across its 130° edges (a
@@ -63,7 +63,7 @@ use crate::eval::sample::{normals_at, orient_at_kinks, values_at};
 use crate::mesh::Mesh;
 use crate::mesh::origin::{self, Origins};
 use crate::octree::{Leaf, Octree};
-use crate::roots::{Segment, bisect, bisect_batch, project};
+use crate::roots::{self, Segment, bisect, bisect_batch, project};
 
 /// A mesh vertex before numbering: an edge between two leaves (smaller
 /// leaf first), or an interior vertex of one dual cell, packed into one
@@ -446,12 +446,8 @@ fn polygonize_cell<E: Evaluator + ?Sized>(
 ) {
     let v: [f64; 8] = cell.map(|c| values.get(c));
     let through = |i: usize, j: usize| {
-        let (a, b) = (cell[i].position(tree), cell[j].position(tree));
-        (1..THROUGH_SAMPLES).all(|k| {
-            let x = a.lerp(b, k as f64 / THROUGH_SAMPLES as f64);
-            let fx = f.point([x.x, x.y, x.z, t]);
-            !fx.is_nan() && (fx < 0.0) == (v[i] < 0.0)
-        })
+        let ends = [cell[i].position(tree), cell[j].position(tree)];
+        roots::keeps_sign(f, t, ends, v[i] < 0.0)
     };
     let cm = mc33::polygonize_checked(&v, &through);
     let mut keys = [Key(0); mc33::MAX_VERTS];
@@ -478,13 +474,6 @@ fn polygonize_cell<E: Evaluator + ?Sized>(
         }
     }
 }
-
-/// Intervals of the segment between two corners of a dual cell on which
-/// `f` is sampled to confirm that the trilinear interpolant's join of the
-/// two through the cell's interior is the function's
-/// ([`mc33::polygonize_checked`]): seven points, a straight channel of the
-/// corners' sign from one to the other.
-const THROUGH_SAMPLES: usize = 8;
 
 /// The point with cell coordinates `p` in the dual cell's trilinear map of
 /// its corner leaves' centres.

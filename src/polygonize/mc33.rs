@@ -373,6 +373,46 @@ impl<const N: usize> Dsu<N> {
     }
 }
 
+/// Joins two classes of `dsu` (the corners the cell's faces connect) that
+/// `inner` (the trilinear interpolant) joins through the interior, where
+/// `through` confirms it for some corner of each; until no two more join,
+/// since a class that has grown may find a confirmed pair it lacked. Each
+/// pair of corners is asked at most once. Joins only grow classes and a
+/// confirmation only grows with them, so the result does not depend on the
+/// order of the pairs.
+fn join_confirmed(dsu: &mut Dsu<8>, inner: &mut Dsu<8>, through: &dyn Fn(usize, usize) -> bool) {
+    let mut refused = 0u64;
+    let mut confirmed = |i: usize, j: usize| {
+        let bit = 1u64 << (8 * i.min(j) + i.max(j));
+        if refused & bit != 0 {
+            return false;
+        }
+        let yes = through(i, j);
+        if !yes {
+            refused |= bit;
+        }
+        yes
+    };
+    let mut joined = true;
+    while joined {
+        joined = false;
+        for c in 1..8 {
+            for d in 0..c {
+                let roots = dsu.find(c) == c && dsu.find(d) == d;
+                if !roots || inner.find(c) != inner.find(d) {
+                    continue;
+                }
+                let class: [usize; 8] = core::array::from_fn(|i| dsu.find(i));
+                let member = |r: usize| (0..8).filter(move |&i| class[i] == r);
+                if member(c).any(|i| member(d).any(|j| confirmed(i, j))) {
+                    dsu.union(c, d);
+                    joined = true;
+                }
+            }
+        }
+    }
+}
+
 /// NaN → 0 (positive), ±∞ → ±f64::MAX.
 fn sanitize(values: &[f64; 8]) -> [f64; 8] {
     values.map(|x| {
@@ -684,22 +724,7 @@ pub fn polygonize_checked(values: &[f64; 8], through: &dyn Fn(usize, usize) -> b
     if several {
         let mut inner = Dsu::<8>(dsu.0);
         interior_unions(&v, &mut inner);
-        for c in 1..8 {
-            for d in 0..c {
-                if inner.find(c) == inner.find(d)
-                    && dsu.find(c) != dsu.find(d)
-                    && (0..8).any(|i| {
-                        (0..8).any(|j| {
-                            dsu.find(i) == dsu.find(c)
-                                && dsu.find(j) == dsu.find(d)
-                                && through(i, j)
-                        })
-                    })
-                {
-                    dsu.union(c, d);
-                }
-            }
-        }
+        join_confirmed(&mut dsu, &mut inner, through);
     }
 
     // Boundary loops, as lists of vertex ids, with their region pair.
