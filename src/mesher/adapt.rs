@@ -72,6 +72,7 @@ use glam::DVec3;
 use smallvec::SmallVec;
 
 use crate::eval::Evaluator;
+use crate::geometry::Bounds;
 use crate::mesh::Mesh;
 use crate::mesh::deviation::{corner_bound, sample_bound, samples, triangle_bounds};
 use crate::mesh::dynmesh::{DynMesh, EdgeKey, key};
@@ -146,18 +147,19 @@ pub struct Adapted {
     pub ms: [f64; 3],
 }
 
-/// Adapts `mesh` to the tolerance `tol` on `f(·, t) = 0` (see the module
-/// doc), splitting no edge shorter than `min_edge`; `keep[v]` pins vertex
-/// `v` (a shorter `keep` pins nothing past its end). Returns what it did.
+/// Adapts `mesh` to the tolerance `tol` on `f(·, t) = 0` in `domain` (see
+/// the module doc), splitting no edge shorter than `min_edge`; `keep[v]`
+/// pins vertex `v` (a shorter `keep` pins nothing past its end). Returns
+/// what it did.
 pub fn adapt<E: Evaluator + ?Sized>(
     mesh: &mut Mesh,
     keep: &[bool],
-    f: &E,
-    t: f64,
+    (f, t): (&E, f64),
+    domain: Bounds,
     tol: f64,
     min_edge: f64,
 ) -> Adapted {
-    let mut a = Adapter::new(mesh, keep, f, t, tol);
+    let mut a = Adapter::new(mesh, keep, (f, t), domain, tol);
     a.min_edge = min_edge;
     let clock = Instant::now();
     a.checked = false;
@@ -208,6 +210,9 @@ struct Adapter<'a, E: Evaluator + ?Sized> {
     f: &'a E,
     t: f64,
     tol: f64,
+    /// Ω: no vertex is put outside it, and a boundary edge's new vertex
+    /// stays on the face of Ω its ends share.
+    domain: Bounds,
     /// Whether flips and relaxation must keep every triangle they make
     /// within the tolerance (off during the size-driven iterations, whose
     /// triangles are measured again before the next one).
@@ -247,7 +252,7 @@ fn worst(b: &Bounds4) -> f64 {
 }
 
 impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
-    fn new(mesh: &Mesh, keep: &[bool], f: &'a E, t: f64, tol: f64) -> Self {
+    fn new(mesh: &Mesh, keep: &[bool], (f, t): (&'a E, f64), domain: Bounds, tol: f64) -> Self {
         // Vertex for vertex (not `DynMesh::from_mesh`, which renumbers):
         // `keep` and the ambiguity flags are indexed like `mesh`.
         let m = DynMesh::indexed(mesh);
@@ -276,6 +281,7 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
             f,
             t,
             tol,
+            domain,
             checked: true,
             min_edge: 0.0,
             closed,
@@ -522,11 +528,15 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
         // normals, which keeps every new triangle on its old one's side.
         if tris.len() == 1 {
             // A boundary edge (the surface cut by the domain): its new
-            // vertex stays on the face its ends share, moved onto the
-            // surface along the gradient's component in that face.
-            let Some(k) = (0..3).find(|&k| pu[k] == pv[k]) else {
+            // vertex stays on the face of Ω its ends share (not any plane
+            // they happen to share: on cap_x, two ends at z = 0 took a
+            // vertex 1.5 cells out of Ω), moved onto the surface along the
+            // gradient's component in that face.
+            let shared = self.domain.faces(pu.to_array()) & self.domain.faces(pv.to_array());
+            if shared == 0 {
                 return refuse(self);
-            };
+            }
+            let k = shared.trailing_zeros() as usize / 2;
             let (_, g) = self.f.point_grad(at(mid, self.t));
             let mut dir = DVec3::from_array(g);
             dir[k] = 0.0;
@@ -573,6 +583,9 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
     /// are `tris` (as [`DynMesh::edge_tris`] gives them) is acceptable (see
     /// the module doc); its gradient if so.
     fn split_fits(&self, tris: &[(u32, [u32; 3])], q: DVec3) -> Option<(DVec3, DVec3)> {
+        if !self.domain.contains(q.to_array()) {
+            return None;
+        }
         let (_, g) = self.f.point_grad(at(q, self.t));
         let g = DVec3::from_array(g);
         let gu = g.normalize_or_zero();
@@ -968,7 +981,9 @@ impl<'a, E: Evaluator + ?Sized> Adapter<'a, E> {
             if !exceeds(worst_at(q), old) {
                 continue;
             }
-            let Some((q, _)) = project_along(self.f, self.t, q, 0.5 * reach) else {
+            let Some((q, _)) = project_along(self.f, self.t, q, 0.5 * reach)
+                .filter(|(q, _)| self.domain.contains(q.to_array()))
+            else {
                 continue;
             };
             if !exceeds(worst_at(q), old) {

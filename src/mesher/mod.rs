@@ -526,7 +526,7 @@ pub fn mesh_to_tolerance_cancellable<E: Evaluator + ?Sized>(
                 .map(|k| (bounds.hi[k] - bounds.lo[k]) / f64::from(1u32 << cap.min(30)))
                 .fold(f64::INFINITY, f64::min);
             let min_edge = (MIN_EDGE * tolerance).max(cell / 8.0);
-            adapted = adapt::adapt(&mut mesh, &feature, f, t, tolerance, min_edge);
+            adapted = adapt::adapt(&mut mesh, &feature, (f, t), bounds, tolerance, min_edge);
             report.triangles = mesh.triangles.len();
             report.vertices = mesh.positions.len();
             report.aspect_good = quality::aspect_good(&mesh);

@@ -221,19 +221,30 @@ fn a_surface_leaving_the_domain_gives_a_clean_open_mesh() {
 }
 
 /// Every vertex lies in Ω, and every boundary vertex exactly on a face of
-/// it (`Bounds::faces`), with the default options (creases, smoothing,
-/// chord splits) at level 6. Each surface once had vertices outside:
-/// a pyramid whose crease points lay past the face x = 1 where its edges
-/// leave Ω; a sphere poking 0.0017 past x = 1, whose vertex next to the
-/// cut was smoothed onto the surface outside; and a domain whose high
-/// face `−1.2 + 1.5` rounds to 0.30000000000000004, where the octree's
-/// boxes and so the boundary vertices stood an ulp outside.
+/// it (`Bounds::faces`), at level 6 with the default options (creases,
+/// smoothing, chord splits) and with `--tolerance`. Each case once had
+/// vertices outside: a pyramid whose crease points lay past the face
+/// x = 1 where its edges leave Ω; a sphere poking 0.0017 past x = 1, whose
+/// vertex next to the cut was smoothed onto the surface outside; a domain
+/// whose high face `−1.2 + 1.5` rounds to 0.30000000000000004, where the
+/// octree's boxes, and so the boundary vertices, ended an ulp outside; and
+/// a cap whose boundary split, at 10⁻³, slid along the plane z = 0 its
+/// ends happened to share, 1.5 cells out of Ω (and the mesh was reported
+/// not manifold).
 #[test]
 fn vertices_stay_in_the_domain() {
     let pyramid = "domain [-1, 1]^3; surface max(max(max(max((0.482979992*(x-0.013) + 0.174582522*(y+0.021) + 0.858050855*(z-0.3)), (-0.533379178*(x-0.013) + 0.504222365*(y+0.021) + 0.679166003*(z-0.3))), (-0.798169519*(x-0.013) + -0.492399999*(y+0.021) + 0.347084514*(z-0.3))), (0.218189650*(x-0.013) + -0.822039842*(y+0.021) + 0.525969366*(z-0.3))), (0.245173929*(x-0.013) + 0.247218111*(y+0.021) + -0.937428904*(z-0.3) - 0.8));";
     let poking = "domain [-1, 1]^3; surface min(sqrt((x-0.50173)^2+(y-0.00291)^2+(z-0.00113)^2)-0.5, sqrt((x+0.49827)^2+(y-0.00291)^2+(z-0.00113)^2)-0.5);";
     let rounded =
         "domain [-1.2, 0.3], [-0.4, 0.4], [-0.4, 0.4]; surface 0.5*x^5 + 0.5*x^4 - y^2 - z^2;";
+    let cap = "domain [-1, 1]^3; surface (x + 2.8)^2 + (y + 0.3)^2 + z^2 - 9;";
+    let opts = MeshOptions {
+        octree: OctreeOptions {
+            max_level: 6,
+            ..OctreeOptions::default()
+        },
+        ..MeshOptions::default()
+    };
     let mut failures = Vec::new();
     for (name, src) in [
         ("pyramid", pyramid),
@@ -241,46 +252,54 @@ fn vertices_stay_in_the_domain() {
         ("rounded", rounded),
     ] {
         let s = surface(src);
-        let opts = MeshOptions {
-            octree: OctreeOptions {
-                max_level: 6,
-                ..OctreeOptions::default()
-            },
-            ..MeshOptions::default()
-        };
         let (m, _) = mesher::mesh(&s, &opts, &|_| {});
-        let outside: Vec<_> = m
-            .positions
-            .iter()
-            .filter(|p| !s.domain.contains(p.to_array()))
-            .collect();
-        if let Some(p) = outside.first() {
-            failures.push(format!(
-                "{name}: {} vertices outside Ω, e.g. {p}",
-                outside.len()
-            ));
-        }
-        let mut uses = std::collections::HashMap::new();
-        for t in &m.triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-            }
-        }
-        let off_faces = uses
-            .iter()
-            .filter(|&(_, &n)| n == 1)
-            .flat_map(|(&(a, b), _)| [a, b])
-            .filter(|&v| s.domain.faces(m.positions[v as usize].to_array()) == 0)
-            .count();
-        assert!(uses.values().any(|&n| n == 1), "{name}: cut by Ω");
-        if off_faces > 0 {
-            failures.push(format!(
-                "{name}: {off_faces} boundary vertices off Ω's faces"
-            ));
+        failures.extend(domain_faults(name, &s, &m));
+    }
+    let s = surface(cap);
+    let (m, ..) = mesher::mesh_to_tolerance(&s, s.domain, &MeshOptions::default(), 1e-3, &|_| {});
+    failures.extend(domain_faults("cap, --tolerance", &s, &m));
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// What [`vertices_stay_in_the_domain`] finds wrong with `m`, a mesh of a
+/// surface cut by its domain.
+fn domain_faults(name: &str, s: &Surface, m: &Mesh) -> Vec<String> {
+    let mut faults = Vec::new();
+    let outside: Vec<_> = m
+        .positions
+        .iter()
+        .filter(|p| !s.domain.contains(p.to_array()))
+        .collect();
+    if let Some(p) = outside.first() {
+        faults.push(format!(
+            "{name}: {} vertices outside Ω, e.g. {p}",
+            outside.len()
+        ));
+    }
+    let t = topology::analyze_in(m, Some(&s.domain));
+    assert!(t.boundary_edges > 0, "{name}: cut by Ω");
+    if !t.manifold() {
+        faults.push(format!("{name}: not manifold in Ω: {t:?}"));
+    }
+    let mut uses = std::collections::HashMap::new();
+    for t in &m.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
         }
     }
-    assert!(failures.is_empty(), "{failures:#?}");
+    let off_faces = uses
+        .iter()
+        .filter(|&(_, &n)| n == 1)
+        .flat_map(|(&(a, b), _)| [a, b])
+        .filter(|&v| s.domain.faces(m.positions[v as usize].to_array()) == 0)
+        .count();
+    if off_faces > 0 {
+        faults.push(format!(
+            "{name}: {off_faces} boundary vertices off Ω's faces"
+        ));
+    }
+    faults
 }
 
 #[test]
