@@ -2,7 +2,8 @@
 //! and not defined (NaN) outside it.
 //!
 //! The surface is `f = 0` in Ω only. The mesher's stages that move
-//! vertices or add them (smoothing, the chord splits, settling) project
+//! vertices or add them (coarsening, smoothing, the chord splits,
+//! settling) project
 //! points onto `f = 0` by Newton steps and brackets, which follow the
 //! surface wherever it goes, and out through a face of Ω where the surface
 //! leaves it. Given [`Within`], they meet NaN there instead, and every
@@ -54,7 +55,8 @@ impl<'a, E: Evaluator + ?Sized> Within<'a, E> {
     }
 
     fn holds_box(&self, b: &[Interval; 4]) -> bool {
-        (0..3).all(|k| self.domain.lo[k] <= b[k].lo && b[k].hi <= self.domain.hi[k])
+        let corner = |end: fn(&Interval) -> f64| [end(&b[0]), end(&b[1]), end(&b[2])];
+        self.domain.contains(corner(|i| i.lo)) && self.domain.contains(corner(|i| i.hi))
     }
 }
 

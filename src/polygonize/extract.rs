@@ -23,8 +23,9 @@
 //!   one sign that the cell's faces keep apart, joined inside by the
 //!   trilinear interpolant) is kept only where `f` itself has that sign
 //!   along the straight segment between two such corners (at
-//!   `roots::SEGMENT_SAMPLES` − 1 points, [`crate::roots::keeps_sign`]); elsewhere the cell's surface is two
-//!   discs ([`super::mc33::polygonize_checked`]). Eight values misread a
+//!   `roots::SEGMENT_SAMPLES` − 1 points, [`crate::roots::keeps_sign`]);
+//!   elsewhere the cell's surface is two discs
+//!   ([`super::mc33::polygonize_checked`]). Eight values misread a
 //!   CSG crease through a dual cell whose corners come from leaves of
 //!   different sizes: a convex pyramid had tubes across its 130° edges (a
 //!   handle each). Faces are still decided by the asymptotic decider

@@ -34,6 +34,9 @@
 //!   [`bisect_batch`]) with [`project_along`]'s results bit for bit.
 //! - [`line_zero`]: a zero along a given line (the mesher's splits, where
 //!   the gradient line would fold a triangle over).
+//! - [`keeps_sign`]: whether `f` keeps one sign at samples along a
+//!   segment (no sheet crosses it): the check that a tunnel through a
+//!   dual cell, or the way to a crease's tip, is the function's.
 //! - [`walk::newton`]: a Newton walk with bounded steps (the twinned
 //!   meshes' projection), ending in [`bisect`] once a step crosses the
 //!   surface.

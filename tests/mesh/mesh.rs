@@ -265,12 +265,8 @@ fn vertices_stay_in_the_domain() {
 /// surface cut by its domain.
 fn domain_faults(name: &str, s: &Surface, m: &Mesh) -> Vec<String> {
     let mut faults = Vec::new();
-    let outside: Vec<_> = m
-        .positions
-        .iter()
-        .filter(|p| !s.domain.contains(p.to_array()))
-        .collect();
-    if let Some(p) = outside.first() {
+    let outside = crate::support::csg::outside(m, &s.domain);
+    if let Some((_, p)) = outside.first() {
         faults.push(format!(
             "{name}: {} vertices outside Ω, e.g. {p}",
             outside.len()

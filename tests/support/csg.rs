@@ -755,7 +755,7 @@ pub fn options(level: u8, plain: bool) -> MeshOptions {
 #[derive(Clone, Debug)]
 pub struct Failure {
     /// The rule: `manifold`, `oriented`, `outward`, `on surface`,
-    /// `degenerate`, `duplicated` or `reference`.
+    /// `in domain`, `degenerate`, `duplicated` or `reference`.
     pub check: &'static str,
     /// What was found, and where.
     pub detail: String,
@@ -776,6 +776,15 @@ pub struct Outcome {
     /// Pairs of vertices at the same position where two sheets touch
     /// (allowed by SPEC §3).
     pub touching_duplicates: usize,
+}
+
+/// The vertices of `mesh` outside the closed box `domain`, with their
+/// indices.
+pub fn outside(mesh: &Mesh, domain: &Bounds) -> Vec<(usize, DVec3)> {
+    (mesh.positions.iter().enumerate())
+        .filter(|(_, p)| !domain.contains(p.to_array()))
+        .map(|(i, p)| (i, *p))
+        .collect()
 }
 
 /// Compiles `source` (panics with the diagnostics if it does not compile).
@@ -905,22 +914,6 @@ pub fn check_mesh(
             off.push((i, *p, v, g));
         }
     }
-    // Vertices in Ω: the surface is only defined there.
-    let outside: Vec<(usize, &DVec3)> = mesh
-        .positions
-        .iter()
-        .enumerate()
-        .filter(|(_, p)| !domain.contains(p.to_array()))
-        .collect();
-    if let Some((i, p)) = outside.first() {
-        fail(
-            "in domain",
-            format!(
-                "{} vertex(es) outside Ω, e.g. vertex {i} at {p}",
-                outside.len()
-            ),
-        );
-    }
     if !off.is_empty() {
         let (i, p, v, g) = off[0];
         fail(
@@ -928,6 +921,17 @@ pub fn check_mesh(
             format!(
                 "{} vertex(es) off the surface, e.g. vertex {i} at {p}: f = {v:e}, |∇f| = {g:e} (h = {h:e})",
                 off.len()
+            ),
+        );
+    }
+    // Vertices in Ω: the surface is only defined there.
+    let outside = outside(mesh, &domain);
+    if let Some((i, p)) = outside.first() {
+        fail(
+            "in domain",
+            format!(
+                "{} vertex(es) outside Ω, e.g. vertex {i} at {p}",
+                outside.len()
             ),
         );
     }
