@@ -121,10 +121,9 @@ impl Evaluator for BrokenBatch {
     }
 }
 
-#[test]
-fn checks_catch_wrong_batches_and_point_gradients() {
-    // x·x + 1: never 0, gradient 2x.
-    let p = prog(vec![
+/// x·x + 1: never 0, gradient 2x.
+fn x_squared_plus_one() -> Program {
+    prog(vec![
         Op::Var(Var::X),
         Op::Binary(BinOp::Mul, Value(0), Value(0)),
         Op::Const(isoc::ir::Const {
@@ -134,7 +133,12 @@ fn checks_catch_wrong_batches_and_point_gradients() {
             defined: true,
         }),
         Op::Binary(BinOp::Add, Value(1), Value(2)),
-    ]);
+    ])
+}
+
+#[test]
+fn checks_catch_wrong_batches_and_point_gradients() {
+    let p = x_squared_plus_one();
     let pts = [[1.0, 0.0, 0.0], [2.0, 5.0, 0.0], [3.0, 0.0, -1.0]];
     let boxes = [
         boxed(Interval::new(0.0, 1.0)),
@@ -910,4 +914,64 @@ mod prune {
         assert_eq!(prune(&program, cell(-1.0)).insts.len(), program.insts.len());
         assert_eq!(prune(&program, cell(0.0)).insts.len(), 1);
     }
+}
+
+/// `eval::within::Within` is the function on the closed box and NaN off
+/// it (a NaN coordinate included), bit for bit the reference's inside;
+/// its batches equal its single calls; a box that leaves Ω keeps the
+/// reference's enclosure, flagged not defined.
+#[test]
+fn within_is_the_function_on_its_box_and_nan_off_it() {
+    use isoc::Bounds;
+    use isoc::eval::within::Within;
+    let r = Reference(x_squared_plus_one());
+    let omega = Bounds {
+        lo: [-1.0, -2.0, 0.0],
+        hi: [1.0, 2.0, 0.5],
+    };
+    let w = Within::new(&r, omega);
+    let pts = [
+        [0.5, 0.0, 0.25],
+        [1.0, -2.0, 0.5],
+        [-1.0, 2.0, 0.0],
+        [1.0f64.next_up(), 0.0, 0.25],
+        [0.0, 0.0, -1e-300],
+        [0.0, f64::NAN, 0.25],
+        [-3.0, 5.0, 9.0],
+    ];
+    for q in pts {
+        let at = [q[0], q[1], q[2], 0.0];
+        let inside = omega.contains(q);
+        let ((v, g), (rv, rg)) = (w.point_grad(at), r.point_grad(at));
+        if inside {
+            assert_eq!(w.point(at).to_bits(), r.point(at).to_bits(), "{q:?}");
+            assert_eq!(
+                (v.to_bits(), g.map(f64::to_bits)),
+                (rv.to_bits(), rg.map(f64::to_bits))
+            );
+        } else {
+            assert!(
+                w.point(at).is_nan() && v.is_nan() && g.iter().all(|x| x.is_nan()),
+                "{q:?}"
+            );
+        }
+    }
+    assert_eq!(pts.iter().filter(|q| omega.contains(**q)).count(), 3);
+    let inside = [
+        Interval::new(0.0, 1.0),
+        Interval::new(-2.0, 2.0),
+        Interval::new(0.0, 0.5),
+        Interval::point(0.0),
+    ];
+    let leaving = [
+        Interval::new(0.5, 1.5),
+        Interval::new(-1.0, 1.0),
+        Interval::new(0.0, 0.5),
+        Interval::point(0.0),
+    ];
+    assert_eq!(w.interval(inside), r.interval(inside));
+    let (wl, rl) = (w.interval(leaving), r.interval(leaving));
+    assert!(rl.defined && !wl.defined && wl.iv == rl.iv);
+    assert!(!w.grad(leaving).defined && w.grad(inside).defined);
+    check_batches(&w, &pts, 0.0, &[inside, leaving]).expect("batches");
 }
