@@ -119,10 +119,10 @@
 //! triangles (no stage tests for self-intersection); a wedge's tip past
 //! the box is checked only along the segment from the patch's mean, by
 //! `roots::SEGMENT_SAMPLES` − 1 samples of `f`'s sign, so a sheet thinner
-//! than their spacing between the patch and the tip is not seen. The normals at
-//! feature points are the gradient there (one side's, where f has a kink;
-//! just off the point along the patch's normals where the gradient
-//! vanishes, at a singular point), as for every vertex.
+//! than their spacing between the patch and the tip is not seen. The
+//! normals at feature points are the gradient there (one side's, where f
+//! has a kink; just off the point along the patch's normals where the
+//! gradient vanishes, at a singular point), as for every vertex.
 
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;

@@ -28,9 +28,11 @@
 //!   ([`super::mc33::polygonize_checked`]). Eight values misread a
 //!   CSG crease through a dual cell whose corners come from leaves of
 //!   different sizes: a convex pyramid had tubes across its 130° edges (a
-//!   handle each). Faces are still decided by the asymptotic decider
-//!   (deciding them by `f` at their centres left edges with four
-//!   triangles where dual cells are degenerate: `docs/faithful.md`).
+//!   handle each). Faces are still decided by the asymptotic decider:
+//!   deciding them by `f` at their centres left edges with four triangles
+//!   where dual cells are degenerate, and, with those mended, joined the
+//!   blobs at a pyramid's base corners through two faces each, making
+//!   handles (`docs/faithful.md`, sessions 50 and 51).
 //! - Triangles whose vertices repeat (degenerate dual cells map two cell
 //!   edges to one leaf pair) are dropped.
 //! - A vertex is *ambiguous* when a leaf of its dual edge (or, for interior
