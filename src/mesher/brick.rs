@@ -98,12 +98,17 @@ impl Brick {
         (self.ijk.map(|k| u64::from(k) * side), side)
     }
 
-    /// The brick's closed box: the octree it needs.
-    pub fn region(&self) -> Region {
+    /// The octree the brick needs, for leaves of level at most
+    /// `max_level`: its closed box and one such leaf around it (where
+    /// extraction finds the samples it mends, [`crate::polygonize`]'s
+    /// isolated samples), within Ω.
+    pub fn region(&self, max_level: u8) -> Region {
         let (lo, side) = self.span();
+        let leaf = 1u64 << (MAX_LEVEL - max_level.min(MAX_LEVEL));
+        let top = 1u64 << MAX_LEVEL;
         Region {
-            lo,
-            hi: lo.map(|k| k + side),
+            lo: lo.map(|k| k.saturating_sub(leaf)),
+            hi: lo.map(|k| (k + side + leaf).min(top)),
         }
     }
 
@@ -166,7 +171,7 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
     let t0 = Instant::now();
     let tree = Octree::build_region_from(
         shared,
-        brick.region(),
+        brick.region(shared.max_level()),
         &|level, cells| progress(Stage::Octree { level, cells }),
         cancel,
     )?;

@@ -132,7 +132,6 @@ pub(super) struct Builder<'a, E: ?Sized> {
     /// Cells subdivided whatever the criteria (none for a bricked run).
     refine: Option<&'a Refine>,
     tree: Octree,
-    max_level: u8,
     min_level: u8,
     /// The full program's length when pruning is on, else 0.
     full_len: usize,
@@ -171,6 +170,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             hi: DVec3::from_array(domain.hi),
             stats: OctreeStats::default(),
             tapes: Vec::new(),
+            max_level,
         };
         let full = f.program().filter(|p| opts.prune && prune::has_choices(p));
         let full_len = full.map_or(0, |p| p.insts.len());
@@ -181,7 +181,6 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             opts,
             refine,
             tree,
-            max_level,
             min_level: opts.min_level.min(max_level),
             full_len,
             budget: Budget::new(full_len),
@@ -203,7 +202,6 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             opts: self.opts,
             refine: self.refine,
             tree: self.tree.clone(),
-            max_level: self.max_level,
             min_level: self.min_level,
             full_len: self.full_len,
             budget: self.budget,
@@ -220,13 +218,13 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
     /// `forced` cells are subdivided below the maximal level whatever the
     /// criteria.
     fn fate(&self, v: &criteria::Verdict, forced: bool, level: u8) -> Option<Leaf> {
-        if forced && level < self.max_level {
+        if forced && level < self.tree.max_level {
             None
         } else if v.empty {
             Some(Leaf::Empty)
         } else if level < self.min_level {
             None
-        } else if level == self.max_level {
+        } else if level == self.tree.max_level {
             Some(if v.topology_ok {
                 Leaf::Surface
             } else {
@@ -301,7 +299,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             let verdicts = tape.with(self.f, long, |e, interpreted| {
                 let mut v = examine(e, &cells[start..end], opts, interpreted);
                 if level >= self.min_level {
-                    let last = level == self.max_level;
+                    let last = level == self.tree.max_level;
                     review(e, &cells[start..end], &mut v, opts, self.tau, last);
                     // Across creases at the last level, along one
                     // direction: with the pruned program when there is
@@ -320,7 +318,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
                     // when the tape has no pruned one.
                     let program = tape.program.as_ref().map(|r| &r.0).or_else(|| e.program());
                     if let (Some(program), Some(_), false) = (program, self.tau, last) {
-                        let next_is_last = level + 1 == self.max_level;
+                        let next_is_last = level + 1 == self.tree.max_level;
                         crease::planar_look(
                             program,
                             &cells[start..end],
@@ -486,7 +484,7 @@ impl<'a, E: Evaluator + ?Sized> Run<'a, E> {
                 progress(self.level, self.evaluated);
                 self.level += 1;
             }
-            if self.frontier.is_empty() || self.level > self.b.max_level {
+            if self.frontier.is_empty() || self.level > self.b.tree.max_level {
                 return cancel.check();
             }
             cancel.check()?;
@@ -540,5 +538,10 @@ impl<'a, E: ?Sized> SharedLevels<'a, E> {
     /// The function the levels were built for.
     pub fn evaluator(&self) -> &'a E {
         self.0.b.f
+    }
+
+    /// The deepest level a leaf may have ([`Octree::max_level`]).
+    pub fn max_level(&self) -> u8 {
+        self.0.b.tree.max_level
     }
 }

@@ -42,6 +42,9 @@ pub struct Octree {
     /// "Pruning"); `None`, or past the end of the vector, elsewhere. Empty
     /// without pruning. [`Octree::field`] evaluates with them.
     pub tapes: Vec<Option<Arc<Reference>>>,
+    /// The deepest level a leaf may have (the options' `max_level`, at most
+    /// [`MAX_LEVEL`](super::MAX_LEVEL)).
+    pub max_level: u8,
 }
 
 impl Octree {

@@ -33,6 +33,11 @@
 //!   where dual cells are degenerate, and, with those mended, joined the
 //!   blobs at a pyramid's base corners through two faces each, making
 //!   handles (`docs/faithful.md`, sessions 50 and 51).
+//! - A leaf centre that every cell around it leaves in a region of its own
+//!   (a blob around one sample) is joined to one opposite corner where `f`
+//!   keeps its sign between them ([`super::isolated`]): the cells that
+//!   have both as opposite corners are polygonised again with that join
+//!   ([`super::mc33::polygonize_joined`]).
 //! - Triangles whose vertices repeat (degenerate dual cells map two cell
 //!   edges to one leaf pair) are dropped.
 //! - A vertex is *ambiguous* when a leaf of its dual edge (or, for interior
@@ -56,6 +61,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::isolated::{self, Join};
 use super::mc33::{self, EDGE_CORNERS, Vertex};
 use rustc_hash::FxHashMap as HashMap;
 
@@ -129,6 +135,8 @@ struct CellsOutput {
     cells: Vec<u32>,
     interiors: Vec<(Key, DVec3)>,
     dropped: usize,
+    /// Per cell, its corners' regions ([`mc33::CellMesh::regions`]).
+    regions: Vec<[u8; 8]>,
 }
 
 /// Active cells per polygonisation task.
@@ -145,10 +153,13 @@ pub struct ExtractStats {
 
 /// The function's values at the dual grid's corners: at every leaf centre
 /// (internal nodes get NaN, never read), and at the ghost corners met so
-/// far.
+/// far; and the active cells beside a brick's, for [`super::isolated`].
 pub struct CornerValues {
     leaves: Vec<f64>,
     ghosts: HashMap<Corner, f64>,
+    /// The active dual cells the walk's `keep` refused whose corners are
+    /// all known (a brick's neighbours' cells beside it).
+    near: Vec<DualCell>,
 }
 
 /// Edges per lock-step bisection.
@@ -173,6 +184,7 @@ impl CornerValues {
         CornerValues {
             leaves: values,
             ghosts: HashMap::default(),
+            near: Vec::new(),
         }
     }
 
@@ -199,7 +211,9 @@ pub fn active_cells<E: Evaluator + ?Sized>(
 }
 
 /// [`active_cells`] among the dual cells for which `keep` holds (a brick's
-/// own: `keep` is asked first, before any value is read).
+/// own: `keep` is asked first, before any value is read). The cells `keep`
+/// refuses whose corners are all explored leaves are read too, for
+/// [`super::isolated`]: the active ones are kept in `values`.
 pub fn active_cells_where<E: Evaluator + ?Sized>(
     tree: &Octree,
     f: &E,
@@ -212,16 +226,19 @@ pub fn active_cells_where<E: Evaluator + ?Sized>(
         let first = negative(values.get(cell[0]));
         cell.iter().any(|&c| negative(values.get(c)) != first)
     };
+    let explored = |c: &Corner| tree.nodes[c.node as usize].leaf() != Some(Leaf::Outside);
     let mut count = 0;
     // Cells with a ghost corner are kept as candidates (in order) and
     // decided once every ghost met has its value.
-    let mut cells: Vec<(DualCell, bool)> = Vec::new();
+    let mut cells: Vec<(DualCell, bool, bool)> = Vec::new();
     let mut new_ghosts: Vec<Corner> = Vec::new();
     dual::for_each_cell(tree, |cell| {
-        if !keep(&cell) {
+        let own = keep(&cell);
+        if own {
+            count += 1;
+        } else if !cell.iter().all(explored) {
             return;
         }
-        count += 1;
         let mut pending = false;
         for &c in &cell {
             if c.is_ghost() && !values.ghosts.contains_key(&c) {
@@ -230,21 +247,22 @@ pub fn active_cells_where<E: Evaluator + ?Sized>(
             }
             pending |= c.is_ghost();
         }
-        if pending {
-            cells.push((cell, true));
-        } else if changes_sign(values, &cell) {
-            cells.push((cell, false));
+        if pending || changes_sign(values, &cell) {
+            cells.push((cell, own, pending));
         }
     });
     let at: Vec<DVec3> = new_ghosts.iter().map(|c| c.position(tree)).collect();
     for (c, v) in new_ghosts.iter().zip(values_at(f, t, &at)) {
         values.ghosts.insert(*c, v);
     }
-    let active = cells
-        .into_iter()
-        .filter(|(cell, pending)| !pending || changes_sign(values, cell))
-        .map(|(cell, _)| cell)
-        .collect();
+    let (mut active, mut near) = (Vec::with_capacity(cells.len()), Vec::new());
+    for (cell, own, pending) in cells {
+        if pending && !changes_sign(values, &cell) {
+            continue;
+        }
+        if own { &mut active } else { &mut near }.push(cell);
+    }
+    values.near = near;
     (active, count)
 }
 
@@ -292,22 +310,30 @@ fn extract_in<E: Evaluator + ?Sized>(
         active_cells: active.len(),
         ..ExtractStats::default()
     };
-    // Polygonise every active cell into triangles over keys.
+    // Polygonise every active cell into triangles over keys, then again
+    // the tasks whose cells mend an isolated sample.
     let mut outputs: Vec<CellsOutput> = active
         .par_chunks(CELLS_PER_TASK)
         .enumerate()
-        .map(|(chunk, cells)| {
-            let mut out = CellsOutput::default();
-            if cancel.is_cancelled() {
-                return out;
-            }
-            for (i, cell) in cells.iter().enumerate() {
-                let ci = (chunk * CELLS_PER_TASK + i) as u32;
-                polygonize_cell(tree, (f, t), ci, cell, values, &mut out);
-            }
-            out
+        .map(|(chunk, cells)| polygonize_task(tree, (f, t), values, chunk, cells, &[], cancel))
+        .collect();
+    cancel.check()?;
+    let mends = mends(tree, (f, t), values, active, &outputs);
+    let task = |j: &Join| j.0 as usize / CELLS_PER_TASK;
+    let redone: Vec<(usize, CellsOutput)> = mends
+        .chunk_by(|a, b| task(a) == task(b))
+        .collect::<Vec<_>>()
+        .par_iter()
+        .map(|joins| {
+            let chunk = task(&joins[0]);
+            let cells = active.chunks(CELLS_PER_TASK).nth(chunk).unwrap_or(&[]);
+            let out = polygonize_task(tree, (f, t), values, chunk, cells, joins, cancel);
+            (chunk, out)
         })
         .collect();
+    for (chunk, out) in redone {
+        outputs[chunk] = out;
+    }
     cancel.check()?;
     stats.dropped_degenerate = outputs.iter().map(|o| o.dropped).sum();
     let cell_of: Vec<u32> = outputs
@@ -438,43 +464,107 @@ fn origins_of(tree: &Octree, active: &[DualCell], keys: &[Key]) -> Origins {
     Origins { ids, sides }
 }
 
-/// Polygonises active dual cell number `ci` into `out`.
+/// Polygonises the active dual cells `cells` of task `chunk` (cell
+/// numbers from `chunk * CELLS_PER_TASK`), joining in cell `ci` the pairs
+/// `(ci, pair)` of `joins` (sorted); nothing when cancelled.
+fn polygonize_task<E: Evaluator + ?Sized>(
+    tree: &Octree,
+    (f, t): (&E, f64),
+    values: &CornerValues,
+    chunk: usize,
+    cells: &[DualCell],
+    joins: &[Join],
+    cancel: &Cancel,
+) -> CellsOutput {
+    let mut out = CellsOutput::default();
+    if cancel.is_cancelled() {
+        return out;
+    }
+    for (i, cell) in cells.iter().enumerate() {
+        let ci = (chunk * CELLS_PER_TASK + i) as u32;
+        let from = joins.partition_point(|j| j.0 < ci);
+        let to = joins.partition_point(|j| j.0 <= ci);
+        let pairs: Vec<[u8; 2]> = joins[from..to].iter().map(|j| j.1).collect();
+        let cm = polygonize_cell(tree, (f, t), cell, values, &pairs);
+        out.push(tree, ci, cell, &cm);
+    }
+    out
+}
+
+/// The joins that mend the isolated samples ([`super::isolated`]) among
+/// the active cells (their regions in `outputs`) and the cells beside them
+/// that the walk kept in `values`, per active cell number.
+fn mends<E: Evaluator + ?Sized>(
+    tree: &Octree,
+    (f, t): (&E, f64),
+    values: &CornerValues,
+    active: &[DualCell],
+    outputs: &[CellsOutput],
+) -> Vec<Join> {
+    let near: Vec<[u8; 8]> = values
+        .near
+        .par_iter()
+        .map(|cell| polygonize_cell(tree, (f, t), cell, values, &[]).regions())
+        .collect();
+    let regions: Vec<[u8; 8]> = outputs
+        .iter()
+        .flat_map(|o| o.regions.iter().copied())
+        .chain(near)
+        .collect();
+    let cells = |ci: usize| {
+        active
+            .get(ci)
+            .unwrap_or_else(|| &values.near[ci - active.len()])
+    };
+    let mut joins = isolated::joins(tree, (f, t), values, cells, &regions, tree.max_level);
+    joins.retain(|j| (j.0 as usize) < active.len());
+    joins
+}
+
+/// Polygonises one dual cell, joining the pairs of corners `joined`
+/// ([`mc33::polygonize_joined`]).
 fn polygonize_cell<E: Evaluator + ?Sized>(
     tree: &Octree,
     (f, t): (&E, f64),
-    ci: u32,
     cell: &DualCell,
     values: &CornerValues,
-    out: &mut CellsOutput,
-) {
+    joined: &[[u8; 2]],
+) -> mc33::CellMesh {
     let v: [f64; 8] = cell.map(|c| values.get(c));
     let through = |i: usize, j: usize| {
         let ends = [cell[i].position(tree), cell[j].position(tree)];
         roots::keeps_sign(f, t, ends, v[i] < 0.0)
     };
-    let cm = mc33::polygonize_checked(&v, &through);
-    let mut keys = [Key(0); mc33::MAX_VERTS];
-    for (k, vert) in cm.vertices().iter().enumerate() {
-        keys[k] = match *vert {
-            Vertex::Edge { edge, .. } => {
-                let [a, b] = EDGE_CORNERS[edge as usize];
-                Key::edge(cell[a as usize], cell[b as usize])
-            }
-            Vertex::Interior(p) => {
-                let key = Key::interior(ci, k as u8);
-                out.interiors.push((key, trilinear_map(tree, cell, p)));
-                key
-            }
-        };
-    }
-    for t in cm.triangles() {
-        let k = t.map(|i| keys[i as usize]);
-        if k[0] == k[1] || k[1] == k[2] || k[0] == k[2] {
-            out.dropped += 1;
-        } else {
-            out.triangles.push(k);
-            out.cells.push(ci);
+    mc33::polygonize_joined(&v, &through, joined)
+}
+
+impl CellsOutput {
+    /// Adds the polygonisation `cm` of active cell number `ci`.
+    fn push(&mut self, tree: &Octree, ci: u32, cell: &DualCell, cm: &mc33::CellMesh) {
+        let mut keys = [Key(0); mc33::MAX_VERTS];
+        for (k, vert) in cm.vertices().iter().enumerate() {
+            keys[k] = match *vert {
+                Vertex::Edge { edge, .. } => {
+                    let [a, b] = EDGE_CORNERS[edge as usize];
+                    Key::edge(cell[a as usize], cell[b as usize])
+                }
+                Vertex::Interior(p) => {
+                    let key = Key::interior(ci, k as u8);
+                    self.interiors.push((key, trilinear_map(tree, cell, p)));
+                    key
+                }
+            };
         }
+        for t in cm.triangles() {
+            let k = t.map(|i| keys[i as usize]);
+            if k[0] == k[1] || k[1] == k[2] || k[0] == k[2] {
+                self.dropped += 1;
+            } else {
+                self.triangles.push(k);
+                self.cells.push(ci);
+            }
+        }
+        self.regions.push(cm.regions());
     }
 }
 
@@ -500,7 +590,6 @@ pub fn cell_bounds(tree: &Octree, cell: &DualCell) -> [DVec3; 2] {
     )
 }
 
-/// The largest distance between two corners of a dual cell.
 /// When the gradient line from an interior vertex `p0` finds no zero: a
 /// zero on the segment from `p0` to the nearest corner of its dual cell
 /// whose value has the other sign (bisection; the corner values are
@@ -531,6 +620,8 @@ fn zero_in_cell<E: Evaluator + ?Sized>(
         .map(|(q, v)| bisect(f, t, p0, q, f0, v))
 }
 
+/// The diagonal of the box of a dual cell's corners (no two corners are
+/// farther apart).
 fn cell_reach(tree: &Octree, cell: &DualCell) -> f64 {
     let [lo, hi] = cell_bounds(tree, cell);
     (hi - lo).length()

@@ -298,6 +298,8 @@ pub struct CellMesh {
     tris: [[u8; 3]; MAX_TRIS],
     nv: u8,
     nt: u8,
+    /// Per corner, the least corner of its region (see [`CellMesh::regions`]).
+    regions: [u8; 8],
 }
 
 impl Default for CellMesh {
@@ -307,6 +309,7 @@ impl Default for CellMesh {
             tris: [[0; 3]; MAX_TRIS],
             nv: 0,
             nt: 0,
+            regions: [0, 1, 2, 3, 4, 5, 6, 7],
         }
     }
 }
@@ -320,6 +323,14 @@ impl CellMesh {
     /// The triangles, counter-clockwise seen from the positive side.
     pub fn triangles(&self) -> &[[u8; 3]] {
         &self.tris[..self.nt as usize]
+    }
+
+    /// Per corner, the least corner of the same region: the corners of one
+    /// sign that the cell's surface leaves connected (along edges, across
+    /// faces, through the interior) share it. A cell without surface is
+    /// one region.
+    pub fn regions(&self) -> [u8; 8] {
+        self.regions
     }
 
     /// Whether the cell produced no triangle.
@@ -411,6 +422,11 @@ fn join_confirmed(dsu: &mut Dsu<8>, inner: &mut Dsu<8>, through: &dyn Fn(usize, 
             }
         }
     }
+}
+
+/// Whether corners `a` and `b` are opposite across a face or the cell.
+fn diagonal(a: u8, b: u8) -> bool {
+    a < 8 && b < 8 && (a ^ b).count_ones() >= 2
 }
 
 /// NaN → 0 (positive), ±∞ → ±f64::MAX.
@@ -636,6 +652,21 @@ pub fn polygonize(values: &[f64; 8]) -> CellMesh {
 /// of the function it samples, which the interpolant of eight values
 /// misreads where `f` has a kink (see [`super::extract`]).
 pub fn polygonize_checked(values: &[f64; 8], through: &dyn Fn(usize, usize) -> bool) -> CellMesh {
+    polygonize_joined(values, through, &[])
+}
+
+/// [`polygonize_checked`], with the two corners of each pair in `joined`
+/// in one region whatever the interpolant says, where they have one sign
+/// and are opposite across a face (that face then joins them, deciding
+/// it against the asymptotic decider: a caller must pass the pair to both
+/// cells of the face) or across the cell. Other pairs are ignored. A
+/// mesher uses it to connect a sample the interpolant leaves alone to the
+/// region `f` joins it to (see [`super::extract`]).
+pub fn polygonize_joined(
+    values: &[f64; 8],
+    through: &dyn Fn(usize, usize) -> bool,
+    joined: &[[u8; 2]],
+) -> CellMesh {
     let mut mesh = CellMesh::default();
     // `raw` decides edge parameters and faces (shared with the neighbours);
     // `v`, scaled for the cell, serves the interior analysis and geometry.
@@ -648,6 +679,7 @@ pub fn polygonize_checked(values: &[f64; 8], through: &dyn Fn(usize, usize) -> b
         }
     }
     if mask == 0 || mask == 0xff {
+        mesh.regions = [0; 8];
         return mesh;
     }
     let neg = |c: u8| mask >> c & 1 == 1;
@@ -692,7 +724,17 @@ pub fn polygonize_checked(values: &[f64; 8], through: &dyn Fn(usize, usize) -> b
             link(direct(f, fe[k0], fe[k1], c, neg(c)));
         } else if n_act == 4 {
             let q = fc.map(|c| raw[c as usize]);
-            let joins_neg = face_joins_negative(q);
+            let forced = joined.iter().find(|[a, b]| {
+                let (i, j) = (
+                    fc.iter().position(|c| c == a),
+                    fc.iter().position(|c| c == b),
+                );
+                matches!((i, j), (Some(i), Some(j)) if i.abs_diff(j) == 2)
+            });
+            let joins_neg = match forced {
+                Some(&[a, _]) => neg(a),
+                None => face_joins_negative(q),
+            };
             // Corners of the separated sign are cut off.
             let cut_neg = !joins_neg;
             let mut joined = [0usize; 2];
@@ -726,6 +768,12 @@ pub fn polygonize_checked(values: &[f64; 8], through: &dyn Fn(usize, usize) -> b
         interior_unions(&v, &mut inner);
         join_confirmed(&mut dsu, &mut inner, through);
     }
+    for &[a, b] in joined {
+        if diagonal(a, b) && neg(a) == neg(b) {
+            dsu.union(a as usize, b as usize);
+        }
+    }
+    mesh.regions = core::array::from_fn(|c| dsu.find(c) as u8);
 
     // Boundary loops, as lists of vertex ids, with their region pair.
     let mut loops = [[0u8; 12]; 6];

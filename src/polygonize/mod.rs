@@ -10,8 +10,11 @@
 //! * [`extract`]: dual marching cubes over the octree — every active dual
 //!   cell through [`mc33`], vertices keyed by leaf pairs and bisected onto
 //!   the surface, joined into one mesh.
+//! * [`isolated`]: the samples every cell leaves alone (blobs beside sharp
+//!   edges), and the one join per sample that `f` confirms.
 //!
 //! The topology of the result is measured by [`crate::mesh::topology`].
 
 pub mod extract;
+mod isolated;
 pub mod mc33;

@@ -115,6 +115,18 @@ fn bricked_random_csg_scenes_equal_the_whole_mesh() {
     }
 }
 
+/// The samples extraction joins to a solid along a diagonal (at a convex
+/// solid's sharp edges, `isoc::polygonize`'s isolated samples) are joined
+/// in a brick as in the whole run, also where the sample and its cells
+/// straddle a seam.
+#[test]
+fn bricked_blob_joins_equal_the_whole_mesh() {
+    for (name, src) in [("pyramid", csg::PYRAMID), ("box", csg::ROTATED_BOX)] {
+        let s = csg::compile(src, name);
+        assert_bricked_is_whole(name, &s, &plain(8), &[1, 2]);
+    }
+}
+
 #[test]
 fn seams_stay_closed_with_smoothing_and_creases() {
     let cfg = Config::default();

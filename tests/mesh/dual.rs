@@ -38,6 +38,7 @@ fn tree(max: u8, split: &dyn Fn(u8, [u32; 3]) -> bool) -> Octree {
         hi: DVec3::ONE,
         stats: OctreeStats::default(),
         tapes: Vec::new(),
+        max_level: max,
     }
 }
 

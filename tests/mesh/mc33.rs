@@ -893,3 +893,69 @@ fn a_refused_tunnel_closes_into_discs() {
         "{tubes} tunnels, {closed} closed"
     );
 }
+
+/// Corners joined by the caller ([`mc33::polygonize_joined`]) share a
+/// region whatever the interpolant says. Opposite corners of a cell (case
+/// 4 without a tunnel) become a tube; opposite corners of a face that the
+/// asymptotic decider separates become one disc, with that face's
+/// segments flipped the same way in the cell across it, so the two still
+/// agree. Pairs that are not opposite, or not of one sign, change nothing.
+#[test]
+fn joined_corners_share_a_region() {
+    let mut body = [1.0; 8];
+    (body[0], body[7]) = (-1.0, -1.0);
+    let apart = polygonize(&body);
+    let regions = apart.regions();
+    assert_ne!(regions[0], regions[7]);
+    assert_eq!(
+        mesh_topology(&apart),
+        Topology {
+            components: 2,
+            euler: 2
+        }
+    );
+    let tube = mc33::polygonize_joined(&body, &|_, _| true, &[[0, 7]]);
+    assert_eq!(tube.regions()[0], tube.regions()[7]);
+    assert_eq!(
+        mesh_topology(&tube),
+        Topology {
+            components: 1,
+            euler: 0
+        }
+    );
+    // Corners 0 and 3 are opposite on the face z = 0; the cell below has
+    // that face on its top, where they are corners 4 and 7.
+    let mut low = [1.0; 8];
+    (low[0], low[3]) = (-0.5, -0.5);
+    let mut below = [0.8, 0.9, 1.1, 0.7, 1.0, 1.0, 1.0, 1.0];
+    (below[4], below[7]) = (-0.5, -0.5);
+    assert_eq!(mesh_topology(&polygonize(&low)).components, 2);
+    let (a, b) = (
+        mc33::polygonize_joined(&low, &|_, _| true, &[[3, 0]]),
+        mc33::polygonize_joined(&below, &|_, _| true, &[[4, 7]]),
+    );
+    assert_eq!(
+        mesh_topology(&a),
+        Topology {
+            components: 1,
+            euler: 1
+        }
+    );
+    let mut a_in_b: Vec<_> = face_sides(&a, 2, 0)
+        .iter()
+        .map(|&((ea, ta), (eb, tb))| ((across_down(eb), tb), (across_down(ea), ta)))
+        .collect();
+    a_in_b.sort_unstable();
+    assert_eq!(a_in_b, face_sides(&b, 2, 1));
+    assert_ne!(face_sides(&a, 2, 0), face_sides(&polygonize(&low), 2, 0));
+    for ignored in [[0, 1], [0, 5], [0, 9]] {
+        let m = mc33::polygonize_joined(&body, &|_, _| true, &[ignored]);
+        assert_eq!(m.triangles(), apart.triangles(), "{ignored:?}");
+    }
+}
+
+/// The edge of the neighbouring cell across face (z, 0) that is edge `e`.
+fn across_down(e: u8) -> u8 {
+    let [a, b] = EDGE_CORNERS[e as usize];
+    mc33::edge_between(a | 4, b | 4).expect("edge")
+}

@@ -728,6 +728,15 @@ impl Scene {
 
 // ---------------------------------------------------------------- meshing
 
+/// A square pyramid skew to the grid, its base corners cut by Ω's faces
+/// x = 1 and y = 1 (`benches/peers/surfaces/pyramid4.iso`).
+pub const PYRAMID: &str = "domain [-1, 1]^3; surface max(max(max(max((0.482979992*(x-0.013) + 0.174582522*(y+0.021) + 0.858050855*(z-0.3)), (-0.533379178*(x-0.013) + 0.504222365*(y+0.021) + 0.679166003*(z-0.3))), (-0.798169519*(x-0.013) + -0.492399999*(y+0.021) + 0.347084514*(z-0.3))), (0.218189650*(x-0.013) + -0.822039842*(y+0.021) + 0.525969366*(z-0.3))), (0.245173929*(x-0.013) + 0.247218111*(y+0.021) + -0.937428904*(z-0.3) - 0.8));";
+
+/// A rotated box: `benches/peers/surfaces/box_blob.iso` moved 27 cells of
+/// level 8 along x, so that the sample of its blob there (session 51)
+/// lies in a leaf against the plane x = 0, a seam at every brick level.
+pub const ROTATED_BOX: &str = "domain [-1, 1]^3; surface max(max(abs((0.645414188*(x-0.1625655) + -0.744459803*(y--0.001645) + 0.170938958*(z-0.010641))) - 0.32125, abs((0.397746704*(x-0.1625655) + 0.136503231*(y--0.001645) + -0.907284094*(z-0.010641))) - 0.47288), abs((0.652102818*(x-0.1625655) + 0.653564434*(y--0.001645) + 0.384207555*(z-0.010641))) - 0.35574);";
+
 /// The domain of every scene.
 pub const DOMAIN: Bounds = Bounds {
     lo: [-1.0; 3],
