@@ -18,7 +18,8 @@
 //!   ([`crate::roots::bisect_batch`], bit for bit
 //!   [`crate::roots::bisect`]), not by linear interpolation; the
 //!   interior vertices that MC33 adds for tunnels are mapped through the
-//!   dual cell's trilinear map and projected onto `f = 0`.
+//!   dual cell's trilinear map and projected onto `f = 0` (where that
+//!   leaves Ω, onto a zero between them and a corner of their cell).
 //! - A tunnel that MC33 finds through a cell's interior (two corners of
 //!   one sign that the cell's faces keep apart, joined inside by the
 //!   trilinear interpolant) is kept only where `f` itself has that sign
@@ -403,7 +404,9 @@ fn extract_in<E: Evaluator + ?Sized>(
         let p0 = interiors[at].1;
         let cell = active[k.cell() as usize];
         let reach = cell_reach(tree, &cell);
+        let in_domain = |p: &DVec3| p.cmpge(tree.lo).all() && p.cmple(tree.hi).all();
         let p = project(f, t, p0, reach)
+            .filter(in_domain)
             .or_else(|| zero_in_cell(tree, f, t, values, &cell, p0))
             .unwrap_or(p0);
         (p, cell.iter().any(|&l| ambiguous_leaf(l)))
@@ -590,7 +593,8 @@ pub fn cell_bounds(tree: &Octree, cell: &DualCell) -> [DVec3; 2] {
     )
 }
 
-/// When the gradient line from an interior vertex `p0` finds no zero: a
+/// When the gradient line from an interior vertex `p0` finds no zero in
+/// Ω: a
 /// zero on the segment from `p0` to the nearest corner of its dual cell
 /// whose value has the other sign (bisection; the corner values are
 /// known), so the vertex still lies on the surface and in its cell.

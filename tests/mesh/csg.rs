@@ -208,6 +208,18 @@ fn a_touching_zero_is_on_the_surface() {
     assert_passes(&s, 7, false, "box seed 66125");
 }
 
+/// Box seed 67795 (a thin wall, a tiny feature, faces on octree planes):
+/// an interior (MC33) vertex whose gradient line found its zero 3·10⁻⁵
+/// past Ω's face z = lo, with the extraction alone as with the defaults.
+#[test]
+fn interior_vertices_stay_in_the_domain() {
+    let scene = Scene::random(67_795, &Config::default()).in_random_box();
+    let s = compile(&scene.source, "seed_67795.iso");
+    for plain in [false, true] {
+        assert_passes(&s, 7, plain, "box seed 67795");
+    }
+}
+
 /// Compiles a file of `../shared` (beside the repo).
 fn load(path: &str) -> Surface {
     let src = std::fs::read_to_string(path).expect("../shared is beside the repo");
