@@ -35,9 +35,10 @@
 //!   blobs at a pyramid's base corners through two faces each, making
 //!   handles (`docs/faithful.md`, sessions 50 and 51).
 //! - A leaf centre that every cell around it leaves in a region of its own
-//!   (a blob around one sample) is joined to one opposite corner where `f`
-//!   keeps its sign between them ([`super::isolated`]): the cells that
-//!   have both as opposite corners are polygonised again with that join
+//!   (a blob around one sample) is joined to one corner opposite it
+//!   across a face where `f` keeps its sign between them
+//!   ([`super::isolated`]): the two cells of that face are polygonised
+//!   again with the face joining the pair
 //!   ([`super::mc33::polygonize_joined`]).
 //! - Triangles whose vertices repeat (degenerate dual cells map two cell
 //!   edges to one leaf pair) are dropped.
@@ -397,6 +398,7 @@ fn extract_in<E: Evaluator + ?Sized>(
             })
         })
         .unzip();
+    let in_domain = |p: &DVec3| p.cmpge(tree.lo).all() && p.cmple(tree.hi).all();
     placed.par_extend(keys[edges..].par_iter().map(|k| {
         let at = interiors
             .binary_search_by_key(k, |&(key, _)| key)
@@ -404,7 +406,6 @@ fn extract_in<E: Evaluator + ?Sized>(
         let p0 = interiors[at].1;
         let cell = active[k.cell() as usize];
         let reach = cell_reach(tree, &cell);
-        let in_domain = |p: &DVec3| p.cmpge(tree.lo).all() && p.cmple(tree.hi).all();
         let p = project(f, t, p0, reach)
             .filter(in_domain)
             .or_else(|| zero_in_cell(tree, f, t, values, &cell, p0))
@@ -594,9 +595,8 @@ pub fn cell_bounds(tree: &Octree, cell: &DualCell) -> [DVec3; 2] {
 }
 
 /// When the gradient line from an interior vertex `p0` finds no zero in
-/// Ω: a
-/// zero on the segment from `p0` to the nearest corner of its dual cell
-/// whose value has the other sign (bisection; the corner values are
+/// Ω: a zero on the segment from `p0` to the nearest corner of its dual
+/// cell whose value has the other sign (bisection; the corner values are
 /// known), so the vertex still lies on the surface and in its cell.
 /// `None` where `f(p0)` is not finite or no corner has the other sign.
 fn zero_in_cell<E: Evaluator + ?Sized>(

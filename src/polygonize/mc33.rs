@@ -309,7 +309,7 @@ impl Default for CellMesh {
             tris: [[0; 3]; MAX_TRIS],
             nv: 0,
             nt: 0,
-            regions: [0, 1, 2, 3, 4, 5, 6, 7],
+            regions: [0; 8],
         }
     }
 }
