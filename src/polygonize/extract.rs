@@ -520,7 +520,8 @@ fn mends<E: Evaluator + ?Sized>(
             .get(ci)
             .unwrap_or_else(|| &values.near[ci - active.len()])
     };
-    let mut joins = isolated::joins(tree, (f, t), values, cells, &regions, tree.max_level);
+    let value = |c: Corner| values.get(c);
+    let mut joins = isolated::joins(tree, (f, t), value, cells, &regions, tree.max_level);
     joins.retain(|j| (j.0 as usize) < active.len());
     joins
 }

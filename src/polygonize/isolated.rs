@@ -44,8 +44,6 @@ use crate::eval::Evaluator;
 use crate::octree::Octree;
 use crate::roots;
 
-use super::extract::CornerValues;
-
 /// Two corners to join (cell corner numbers) in a dual cell (its number).
 pub(super) type Join = (u32, [u8; 2]);
 
@@ -59,15 +57,16 @@ const CELLS_AROUND: u8 = 8;
 
 /// The joins that mend the isolated samples among the corners of the cells
 /// `cells(i)` (each with its [`super::mc33::CellMesh::regions`]
-/// `regions[i]`), at leaves of level `level`, the tree's deepest: per cell
-/// index, the pair of corners to join, in cell order. A leaf is isolated
+/// `regions[i]`; `value(c)` is corner `c`'s value of `f`), at leaves of
+/// level `level`, the tree's deepest: per cell index, the pair of corners
+/// to join, in cell order. A leaf is isolated
 /// when it is alone in its region in [`CELLS_AROUND`] of the cells, which
 /// are then all of its dual cells: every cell around such a leaf must be
 /// among them.
 pub(super) fn joins<'a, E: Evaluator + ?Sized>(
     tree: &Octree,
     (f, t): (&E, f64),
-    values: &CornerValues,
+    value: impl Fn(Corner) -> f64,
     cells: impl Fn(usize) -> &'a DualCell,
     regions: &[[u8; 8]],
     level: u8,
@@ -84,7 +83,7 @@ pub(super) fn joins<'a, E: Evaluator + ?Sized>(
                 continue;
             }
             let single = (0..8).all(|j| cell[j] == c || r[j] != r[i]);
-            if single && values.get(c).is_finite() {
+            if single && value(c).is_finite() {
                 *count = (*count + 1).min(JOINED - 1);
                 alone.push((ci as u32, i as u8));
             } else {
@@ -96,7 +95,7 @@ pub(super) fn joins<'a, E: Evaluator + ?Sized>(
     if alone.is_empty() {
         return Vec::new();
     }
-    let partner = partners(tree, (f, t), values, &cells, &alone);
+    let partner = partners(tree, (f, t), &value, &cells, &alone);
     let mut out: Vec<Join> = alone
         .iter()
         .filter_map(|&(ci, i)| {
@@ -115,7 +114,7 @@ pub(super) fn joins<'a, E: Evaluator + ?Sized>(
 fn partners<'a, E: Evaluator + ?Sized>(
     tree: &Octree,
     (f, t): (&E, f64),
-    values: &CornerValues,
+    value: &impl Fn(Corner) -> f64,
     cells: &impl Fn(usize) -> &'a DualCell,
     alone: &[(u32, u8)],
 ) -> HashMap<Corner, Corner> {
@@ -123,11 +122,11 @@ fn partners<'a, E: Evaluator + ?Sized>(
     for &(ci, i) in alone {
         let cell = cells(ci as usize);
         let s = cell[i as usize];
-        let negative = values.get(s) < 0.0;
+        let negative = value(s) < 0.0;
         let list = options.entry(s).or_default();
         for j in (0..8u8).filter(|&j| opposite(i, j)) {
             let d = cell[j as usize];
-            let v = values.get(d);
+            let v = value(d);
             if d != s && v.is_finite() && (v < 0.0) == negative {
                 list.push((dual::global(tree, d), d));
             }
@@ -137,7 +136,7 @@ fn partners<'a, E: Evaluator + ?Sized>(
     for (s, mut list) in options {
         list.sort_unstable();
         list.dedup();
-        let negative = values.get(s) < 0.0;
+        let negative = value(s) < 0.0;
         let confirmed = list.into_iter().find(|&(_, d)| {
             // Ends in name order, so that any tree samples the same points.
             let (a, b) = if dual::global(tree, s) <= dual::global(tree, d) {
