@@ -115,6 +115,17 @@ pub fn global(tree: &Octree, c: Corner) -> u128 {
     (u128::from(n.level) << 72) | (i << 48) | (j << 24) | (k << 8) | u128::from(c.mirror)
 }
 
+/// Two corners in the order of their names in any tree ([`global`]), so
+/// that work along the segment between them (bisection, sign samples) runs
+/// the same way in a brick's tree as in the whole one.
+pub fn in_name_order(tree: &Octree, (a, b): (Corner, Corner)) -> (Corner, Corner) {
+    if global(tree, a) <= global(tree, b) {
+        (a, b)
+    } else {
+        (b, a)
+    }
+}
+
 /// A dual cell: 8 corners in corner order (see the module doc).
 pub(crate) type DualCell = [Corner; 8];
 

@@ -381,7 +381,7 @@ fn extract_in<E: Evaluator + ?Sized>(
             let segments: Vec<Segment> = chunk
                 .iter()
                 .map(|k| {
-                    let (a, b) = canonical(tree, k.ends());
+                    let (a, b) = dual::in_name_order(tree, k.ends());
                     Segment {
                         a: a.position(tree),
                         b: b.position(tree),
@@ -438,24 +438,13 @@ fn extract_in<E: Evaluator + ?Sized>(
     Ok((mesh, stats, cell_of, origins))
 }
 
-/// The ends of an edge in the order of their names in any tree
-/// ([`dual::global`]), so that bisection runs the same way in a brick's
-/// tree as in the whole one.
-fn canonical(tree: &Octree, (a, b): (Corner, Corner)) -> (Corner, Corner) {
-    if dual::global(tree, a) <= dual::global(tree, b) {
-        (a, b)
-    } else {
-        (b, a)
-    }
-}
-
 /// The origins of the vertices numbered by `keys`.
 fn origins_of(tree: &Octree, active: &[DualCell], keys: &[Key]) -> Origins {
     let (ids, sides) = keys
         .par_iter()
         .map(|k| {
             if k.is_edge() {
-                let (a, b) = canonical(tree, k.ends());
+                let (a, b) = dual::in_name_order(tree, k.ends());
                 let id = origin::mix(origin::EDGE, dual::global(tree, a), dual::global(tree, b));
                 (id, a.mirror & b.mirror)
             } else {

@@ -138,12 +138,7 @@ fn partners<'a, E: Evaluator + ?Sized>(
         list.dedup();
         let negative = value(s) < 0.0;
         let confirmed = list.into_iter().find(|&(_, d)| {
-            // Ends in name order, so that any tree samples the same points.
-            let (a, b) = if dual::global(tree, s) <= dual::global(tree, d) {
-                (s, d)
-            } else {
-                (d, s)
-            };
+            let (a, b) = dual::in_name_order(tree, (s, d));
             roots::keeps_sign(f, t, [a.position(tree), b.position(tree)], negative)
         });
         if let Some((_, d)) = confirmed {
