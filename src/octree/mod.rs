@@ -85,7 +85,14 @@
 //! never compiles the JIT's kernels. (The interpreters and the JIT give sound
 //! enclosures that may differ in the last bits, so verdicts may differ from
 //! an unpruned run's where a bound grazes 0; both are sound.) A node whose
-//! prune removed nothing skips the next level's attempt.
+//! prune removed nothing skips the next level's attempt. After the build,
+//! the points in a leaf ([`Field`]) are evaluated with its program when
+//! that is short; the long ones are kept for them too, unless together
+//! they are worth `LONG_PAYS` full programs or more: then compiling the
+//! given evaluator's point kernels once costs less than interpreting them
+//! at every point (random CSG scenes, whose leaves keep most of the
+//! program: `docs/faithful.md`, session 53). Both evaluate a point to the
+//! same bits (see [`Field`]), so the choice changes no mesh.
 //!
 //! Before the proof search on an ambiguous leaf, a sign change among the
 //! point values at its centre, at one Newton step from the centre and at

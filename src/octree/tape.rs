@@ -28,6 +28,45 @@ pub(super) const INTERPRET_BUDGET: u64 = 512;
 /// program.
 pub(super) const STORE_LIMIT: u64 = 1 << 23;
 
+/// Past this many full programs' worth of instructions in the leaves'
+/// long pruned programs (more than `1/INTERPRET_RATIO` of the full one),
+/// the points evaluated after the build ([`super::Field`]) go to the given
+/// evaluator in those leaves: compiling its point kernels once then costs
+/// less than interpreting the pruned programs at every point (random CSG
+/// scenes, whose leaves keep most of the program). Below it (colonnade.vm,
+/// whose few long leaves sit among a thousand times as many short ones),
+/// the compilation would cost more than it saves. Measured in
+/// `docs/faithful.md`, session 53.
+pub(super) const LONG_PAYS: usize = 500;
+
+/// Keeps, of the leaves' pruned programs `tapes`, those that the points
+/// are evaluated with after the build (see [`Octree::tapes`]): every one,
+/// unless the long ones (more than `1/INTERPRET_RATIO` of the full
+/// program's `full_len` instructions) hold [`LONG_PAYS`] full programs'
+/// worth of instructions or more; then the short ones only.
+///
+/// A brick's tree decides on its own leaves. So where the full program
+/// overflows inside a branch its pruned one dropped (the one case in which
+/// their point values differ, see [`prune`]), a brick's point there may
+/// differ from the whole run's.
+///
+/// [`Octree::tapes`]: super::Octree::tapes
+pub(super) fn keep_for_points(tapes: &mut [Option<Arc<Reference>>], full_len: usize) {
+    let long = |t: &Option<Arc<Reference>>| {
+        t.as_ref()
+            .map(|r| r.0.insts.len())
+            .filter(|&len| len * INTERPRET_RATIO > full_len)
+    };
+    let worth: usize = tapes.iter().filter_map(long).sum();
+    if worth >= LONG_PAYS * full_len {
+        for t in tapes.iter_mut() {
+            if long(t).is_some() {
+                *t = None;
+            }
+        }
+    }
+}
+
 /// The program a subtree's cells are evaluated with.
 #[derive(Clone)]
 pub(super) struct Tape {
@@ -152,5 +191,43 @@ impl Budget {
             self.open = false;
         }
         self.open
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::surface;
+
+    /// The points keep every pruned program until the long ones are worth
+    /// [`LONG_PAYS`] full programs, and then the short ones only.
+    #[test]
+    fn long_programs_go_once_compiling_pays() {
+        let program = |src: &str| Some(Arc::new(Reference(surface(src).program)));
+        let full = surface(
+            "domain [-1, 1]^3; surface min(min(sqrt(x^2 + y^2 + z^2) - 0.5, \
+             sqrt((x - 1)^2 + y^2 + z^2) - 0.5), min(sqrt(x^2 + (y - 1)^2 + z^2) - 0.5, \
+             sqrt(x^2 + y^2 + (z - 1)^2) - 0.5));",
+        )
+        .program
+        .insts
+        .len();
+        let long = program("domain [-1, 1]^3; surface sqrt(x^2 + y^2 + z^2) - 0.5;");
+        let short = program("domain [-1, 1]^3; surface x;");
+        let len = |t: &Option<Arc<Reference>>| t.as_ref().map_or(0, |r| r.0.insts.len());
+        assert!(len(&long) * INTERPRET_RATIO > full && len(&short) * INTERPRET_RATIO <= full);
+        // Just below the threshold, and at it.
+        let below = (LONG_PAYS * full).div_ceil(len(&long)) - 1;
+        for (n, kept) in [(below, true), (below + 1, false)] {
+            let mut tapes: Vec<_> = (0..n)
+                .flat_map(|_| [long.clone(), short.clone(), None])
+                .collect();
+            keep_for_points(&mut tapes, full);
+            let lens: Vec<usize> = tapes.iter().map(len).collect();
+            let expect: Vec<usize> = (0..n)
+                .flat_map(|_| [if kept { len(&long) } else { 0 }, len(&short), 0])
+                .collect();
+            assert_eq!(lens, expect, "{n} long programs");
+        }
     }
 }

@@ -38,9 +38,10 @@ pub struct Octree {
     /// Counts gathered while building.
     pub stats: OctreeStats,
     /// Per node, the pruned program that is valid on a leaf's box, when
-    /// the leaf's subtree was evaluated with one (see the module doc's
-    /// "Pruning"); `None`, or past the end of the vector, elsewhere. Empty
-    /// without pruning. [`Octree::field`] evaluates with them.
+    /// the leaf's subtree was evaluated with one and the points there are
+    /// to be evaluated with it too (see the module doc's "Pruning");
+    /// `None`, or past the end of the vector, elsewhere. Empty without
+    /// pruning. [`Octree::field`] evaluates with them.
     pub tapes: Vec<Option<Arc<Reference>>>,
     /// The deepest level a leaf may have (the options' `max_level`, at most
     /// [`MAX_LEVEL`](super::MAX_LEVEL)).

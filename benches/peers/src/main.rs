@@ -7,6 +7,9 @@
 //! cargo run --release -- --levels 6 heart torus
 //! cargo run --release -- --no-mesh          # kernels only
 //! ```
+//!
+//! With `ISOC_PEERS_OBJ=DIR`, `--faithful` also writes both meshes of each
+//! row to `DIR/NAME_LEVEL_isoc.obj` and `DIR/NAME_LEVEL_fidget.obj`.
 
 use isoc_peers::*;
 use std::time::Instant;
@@ -410,6 +413,10 @@ fn faithful_table(a: &Args) {
             let (fm, tf) = timed(reps, || fidget_mesh(&c, level));
             let (ip, fp) = (isoc_points(&im), fidget_points(&fm));
             let (it, ft) = (isoc_triangles(&im), fidget_triangles(&fm));
+            if let Ok(dir) = std::env::var("ISOC_PEERS_OBJ") {
+                write_obj(&format!("{dir}/{name}_{level}_isoc.obj"), &ip, &it);
+                write_obj(&format!("{dir}/{name}_{level}_fidget.obj"), &fp, &ft);
+            }
             let (_, icp, _) = vertex_distance(&c, &chord_points(&ip, &it), level);
             let (_, fcp, _) = vertex_distance(&c, &chord_points(&fp, &ft), level);
             let ftop = topology(&ft);
@@ -424,6 +431,18 @@ fn faithful_table(a: &Args) {
             );
         }
     }
+}
+
+/// Writes a mesh as a Wavefront OBJ file at `path` (`ISOC_PEERS_OBJ`).
+fn write_obj(path: &str, points: &[[f64; 3]], triangles: &[[usize; 3]]) {
+    let mut s = String::new();
+    for v in points {
+        s += &format!("v {} {} {}\n", v[0], v[1], v[2]);
+    }
+    for t in triangles {
+        s += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    std::fs::write(path, s).unwrap_or_else(|e| panic!("{path}: {e}"));
 }
 
 /// The size of rayon's global pool (which both meshers use): the
