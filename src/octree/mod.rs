@@ -92,7 +92,8 @@
 //! given evaluator's point kernels once costs less than interpreting them
 //! at every point (random CSG scenes, whose leaves keep most of the
 //! program: `docs/faithful.md`, session 53). Both evaluate a point to the
-//! same bits (see [`Field`]), so the choice changes no mesh.
+//! same bits but where the full program overflows inside a dropped
+//! branch (see [`Field`]), so elsewhere the choice changes no mesh.
 //!
 //! Before the proof search on an ambiguous leaf, a sign change among the
 //! point values at its centre, at one Newton step from the centre and at
