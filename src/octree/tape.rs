@@ -43,7 +43,9 @@ pub(super) const LONG_PAYS: usize = 500;
 /// are evaluated with after the build (see [`Octree::tapes`]): every one,
 /// unless the long ones (more than `1/INTERPRET_RATIO` of the full
 /// program's `full_len` instructions) hold [`LONG_PAYS`] full programs'
-/// worth of instructions or more; then the short ones only.
+/// worth of instructions or more; then the short ones only, and none at
+/// all (an empty vector, which [`super::Field`] passes by without looking
+/// for a point's leaf) when no leaf has a short one.
 ///
 /// A brick's tree decides on its own leaves. So where the full program
 /// overflows inside a branch its pruned one dropped (the one case in which
@@ -51,7 +53,7 @@ pub(super) const LONG_PAYS: usize = 500;
 /// differ from the whole run's.
 ///
 /// [`Octree::tapes`]: super::Octree::tapes
-pub(super) fn keep_for_points(tapes: &mut [Option<Arc<Reference>>], full_len: usize) {
+pub(super) fn keep_for_points(tapes: &mut Vec<Option<Arc<Reference>>>, full_len: usize) {
     let long = |t: &Option<Arc<Reference>>| {
         t.as_ref()
             .map(|r| r.0.insts.len())
@@ -63,6 +65,9 @@ pub(super) fn keep_for_points(tapes: &mut [Option<Arc<Reference>>], full_len: us
             if long(t).is_some() {
                 *t = None;
             }
+        }
+        if tapes.iter().all(Option::is_none) {
+            tapes.clear();
         }
     }
 }
@@ -200,7 +205,8 @@ mod tests {
     use crate::testing::surface;
 
     /// The points keep every pruned program until the long ones are worth
-    /// [`LONG_PAYS`] full programs, and then the short ones only.
+    /// [`LONG_PAYS`] full programs, and then the short ones only, or none
+    /// (an empty vector) when there are none.
     #[test]
     fn long_programs_go_once_compiling_pays() {
         let program = |src: &str| Some(Arc::new(Reference(surface(src).program)));
@@ -229,5 +235,10 @@ mod tests {
                 .collect();
             assert_eq!(lens, expect, "{n} long programs");
         }
+        // With no short program left, none at all.
+        let mut tapes = vec![long.clone(); below + 1];
+        tapes.push(None);
+        keep_for_points(&mut tapes, full);
+        assert!(tapes.is_empty());
     }
 }
