@@ -57,7 +57,7 @@ pub(super) fn keep_for_points(tapes: &mut Vec<Option<Arc<Reference>>>, full_len:
     let long = |t: &Option<Arc<Reference>>| {
         t.as_ref()
             .map(|r| r.0.insts.len())
-            .filter(|&len| len * INTERPRET_RATIO > full_len)
+            .filter(|&len| !short(len, full_len))
     };
     let worth: usize = tapes.iter().filter_map(long).sum();
     if worth >= LONG_PAYS * full_len {
@@ -70,6 +70,13 @@ pub(super) fn keep_for_points(tapes: &mut Vec<Option<Arc<Reference>>>, full_len:
             tapes.clear();
         }
     }
+}
+
+/// Whether a pruned program of `len` instructions is short enough for the
+/// interpreters, against the full program's `full_len`
+/// ([`INTERPRET_RATIO`]).
+fn short(len: usize, full_len: usize) -> bool {
+    len * INTERPRET_RATIO <= full_len
 }
 
 /// The program a subtree's cells are evaluated with.
@@ -137,12 +144,11 @@ impl Tape {
         let Some(current) = &self.program else {
             return self.clone();
         };
-        let interpret = |len: usize| len * INTERPRET_RATIO <= full_len;
         let stored = store.load(Ordering::Relaxed);
         if self.skip || stored >= STORE_LIMIT || !prune::has_choices(&current.0) {
             return Tape {
                 skip: false,
-                interpret: interpret(current.0.insts.len()),
+                interpret: short(current.0.insts.len(), full_len),
                 program: self.program.clone(),
             };
         }
@@ -155,13 +161,13 @@ impl Tape {
                 // Nothing at all came off: the next level is unlikely to
                 // do better, skip its attempt.
                 skip: pruned.insts.len() >= current.0.insts.len(),
-                interpret: interpret(current.0.insts.len()),
+                interpret: short(current.0.insts.len(), full_len),
                 program: self.program.clone(),
             };
         }
         store.fetch_add(pruned.insts.len() as u64, Ordering::Relaxed);
         Tape {
-            interpret: interpret(pruned.insts.len()),
+            interpret: short(pruned.insts.len(), full_len),
             program: Some(Arc::new(Reference(pruned))),
             skip: false,
         }

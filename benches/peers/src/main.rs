@@ -9,7 +9,8 @@
 //! ```
 //!
 //! With `ISOC_PEERS_OBJ=DIR`, `--faithful` also writes both meshes of each
-//! row to `DIR/NAME_LEVEL_isoc.obj` and `DIR/NAME_LEVEL_fidget.obj`.
+//! row to `DIR/NAME_LEVEL_isoc.obj` and `DIR/NAME_LEVEL_fidget.obj` (a
+//! `/` in the name, as `csg/rs5001`'s, becomes `_`).
 
 use isoc_peers::*;
 use std::time::Instant;
@@ -414,8 +415,17 @@ fn faithful_table(a: &Args) {
             let (ip, fp) = (isoc_points(&im), fidget_points(&fm));
             let (it, ft) = (isoc_triangles(&im), fidget_triangles(&fm));
             if let Ok(dir) = std::env::var("ISOC_PEERS_OBJ") {
-                write_obj(&format!("{dir}/{name}_{level}_isoc.obj"), &ip, &it);
-                write_obj(&format!("{dir}/{name}_{level}_fidget.obj"), &fp, &ft);
+                let fidget = isoc::Mesh {
+                    positions: fp.iter().map(|&p| p.into()).collect(),
+                    triangles: ft.iter().map(|t| t.map(|i| i as u32)).collect(),
+                    ..Default::default()
+                };
+                for (who, m) in [("isoc", &im), ("fidget", &fidget)] {
+                    let file = name.replace('/', "_");
+                    let path = format!("{dir}/{file}_{level}_{who}.obj");
+                    isoc::io::write_file(m, std::path::Path::new(&path))
+                        .unwrap_or_else(|e| panic!("{e}"));
+                }
             }
             let (_, icp, _) = vertex_distance(&c, &chord_points(&ip, &it), level);
             let (_, fcp, _) = vertex_distance(&c, &chord_points(&fp, &ft), level);
@@ -431,18 +441,6 @@ fn faithful_table(a: &Args) {
             );
         }
     }
-}
-
-/// Writes a mesh as a Wavefront OBJ file at `path` (`ISOC_PEERS_OBJ`).
-fn write_obj(path: &str, points: &[[f64; 3]], triangles: &[[usize; 3]]) {
-    let mut s = String::new();
-    for v in points {
-        s += &format!("v {} {} {}\n", v[0], v[1], v[2]);
-    }
-    for t in triangles {
-        s += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
-    }
-    std::fs::write(path, s).unwrap_or_else(|e| panic!("{path}: {e}"));
 }
 
 /// The size of rayon's global pool (which both meshers use): the
