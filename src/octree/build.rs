@@ -296,6 +296,8 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
             while end < chunk.len() && chunk[end].1.same(tape) {
                 end += 1;
             }
+            // The programs `planar_look` pruned on the cells' own boxes.
+            let mut owns = vec![None; end - start];
             let verdicts = tape.with(self.f, long, |e, interpreted| {
                 let mut v = examine(e, &cells[start..end], opts, interpreted);
                 if level >= self.min_level {
@@ -326,12 +328,13 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
                             opts,
                             on,
                             next_is_last,
+                            &mut owns,
                         );
                     }
                 }
                 v
             });
-            for (k, v) in verdicts.iter().enumerate() {
+            for ((k, v), own) in verdicts.iter().enumerate().zip(owns) {
                 let node = &tree.nodes[chunk[start + k].0 as usize];
                 let forced = self
                     .refine
@@ -344,7 +347,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
                 // (measured on colonnade: 84k prunes at the last level, 29%
                 // of them shorter).
                 let child = match leaf {
-                    None => tape.child(cells[start + k], self.full_len, &self.store),
+                    None => tape.child(cells[start + k], own, self.full_len, &self.store),
                     Some(_) => tape.clone(),
                 };
                 out.push((leaf, child));

@@ -176,6 +176,10 @@ fn two_planes(program: &crate::ir::Program) -> bool {
 ///   the cells are too coarse for that: on colonnade.vm, stopping two-plane
 ///   cells at every level rose the chord error from 0.23 to 0.27 cells
 ///   for no time saved (`docs/faithful.md`).
+///
+/// Each cell's pruned program goes to `owns` (the same index), for its
+/// children should the cell be subdivided ([`super::tape::Tape::child`]):
+/// pruning again on the same box would give the same program.
 pub(super) fn planar_look(
     program: &crate::ir::Program,
     cells: &[[Interval; 4]],
@@ -183,27 +187,40 @@ pub(super) fn planar_look(
     opts: &OctreeOptions,
     sides: &[[(bool, bool); 3]],
     next_is_last: bool,
+    owns: &mut [Option<crate::ir::Program>],
 ) {
-    for ((cell, v), sides) in cells.iter().zip(verdicts.iter_mut()).zip(sides) {
+    let looks = cells.iter().zip(verdicts.iter_mut()).zip(sides);
+    for (((cell, v), sides), slot) in looks.zip(owns) {
         let on_boundary = sides.iter().any(|&(lo, hi)| lo || hi);
         if v.empty || !v.defined || v.smooth || v.passed(false) || on_boundary {
             continue;
         }
-        let own = crate::eval::prune::prune(program, *cell);
-        if sheet(&own, cell, opts.t) {
-            v.sheet = true;
-            continue;
-        }
-        if !next_is_last || opts.test != TopologyTest::Paper || !two_planes(&own) {
-            continue;
-        }
-        // The direction from the cell's own program: its gradient hull is
-        // the two planes' normals alone.
-        let own = crate::eval::Reference(own);
-        if along_signs(&own, cell, own.grad(*cell).grad) {
-            v.topology_ok = true;
-            v.geometry_ok = true;
-        }
+        let own = crate::eval::Reference(crate::eval::prune::prune(program, *cell));
+        look_planar(&own, cell, v, opts, next_is_last);
+        *slot = Some(own.0);
+    }
+}
+
+/// [`planar_look`] on one cell, with its own program `own`.
+fn look_planar(
+    own: &crate::eval::Reference,
+    cell: &[Interval; 4],
+    v: &mut Verdict,
+    opts: &OctreeOptions,
+    next_is_last: bool,
+) {
+    if sheet(&own.0, cell, opts.t) {
+        v.sheet = true;
+        return;
+    }
+    if !next_is_last || opts.test != TopologyTest::Paper || !two_planes(&own.0) {
+        return;
+    }
+    // The direction from the cell's own program: its gradient hull is
+    // the two planes' normals alone.
+    if along_signs(own, cell, own.grad(*cell).grad) {
+        v.topology_ok = true;
+        v.geometry_ok = true;
     }
 }
 

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use super::examine::{cell_input, examine};
 use super::tape::Tape;
 use super::{Kind, Leaf, Octant, Octree, OctreeOptions};
-use crate::eval::Evaluator;
+use crate::eval::{Evaluator, WHOLE};
 use crate::interval::Interval;
 
 /// Extra levels below an ambiguous leaf searched for a proof that it is
@@ -59,32 +59,29 @@ pub(super) fn straddles<E: Evaluator + ?Sized>(f: &E, a: DVec3, b: DVec3, t: f64
             }
         }
     }
-    seen && (zero || f.interval(cell_input(a, b, t)).defined)
+    // A batch of one: the JIT compiles its single-box interval kernel
+    // apart, for no other call of a mesh run.
+    let mut r = [WHOLE];
+    seen && (zero || {
+        f.interval_batch(&[cell_input(a, b, t)], &mut r);
+        r[0].defined
+    })
 }
 
-/// Whether interval arithmetic proves the cell free of surface: `F`
-/// defined on it and `0 ∉ F(B)` by the natural extension (one interval
-/// evaluation), or, failing that, by the mean-value form or the gradient
-/// kernel's own value enclosure ([`examine`]'s test). The cheap interval
-/// kernel first, the gradient kernel only where it is needed.
-pub(super) fn empty<E: Evaluator + ?Sized>(
-    f: &E,
-    cell: [Interval; 4],
-    opts: &OctreeOptions,
-    with_gradient: bool,
-) -> bool {
-    let r = f.interval(cell);
-    if !r.defined {
-        return false;
-    }
-    if r.iv.excludes_zero() {
-        return true;
-    }
-    with_gradient && examine(f, &[cell], opts, false)[0].empty
-}
-
-/// Whether the box `[a, b]` is proved free of surface, splitting it up to
-/// `depth` more times.
+/// Whether the box `[a, b]`, not proved empty itself, is proved free of
+/// surface by its pieces, splitting it up to `depth` more times: every one
+/// of its 8 children must be. One interval batch over the children settles
+/// those whose natural enclosure excludes 0 with `F` defined on them; the
+/// others (or where `F` may be undefined) are split again, down to the last
+/// level of the search, where a piece on which `F` may be undefined fails
+/// it, and the gradient kernel's tests ([`examine`]'s: the mean-value form,
+/// the gradient kernel's own value enclosure), sharpest on the smallest
+/// boxes, get the last word, in one batch too.
+///
+/// Most searches succeed (random CSG scenes: 90 % and more of the leaves
+/// searched, on the blends' loose enclosures), and a success evaluates
+/// every piece whatever the order: so the pieces are batched rather than
+/// ordered to fail fast.
 pub(super) fn proves_empty<E: Evaluator + ?Sized>(
     f: &E,
     a: DVec3,
@@ -92,35 +89,24 @@ pub(super) fn proves_empty<E: Evaluator + ?Sized>(
     opts: &OctreeOptions,
     depth: u8,
 ) -> bool {
-    // The leaf itself (`depth == PROOF_DEPTH`) was examined when the tree
-    // was built. Above the last level of the search only the natural
-    // interval is tried (cheap); the gradient kernel's tests (mean-value
-    // form) on the smallest boxes, where they are sharpest.
-    if depth < PROOF_DEPTH && empty(f, cell_input(a, b, opts.t), opts, depth == 0) {
-        return true;
-    }
     if depth == 0 {
         return false;
     }
     let m = (a + b) * 0.5;
-    let child = |o: Octant| o.sub_box(a, m, b);
-    // Every child must be proved empty; the one whose centre value is
-    // nearest 0 is the likeliest to fail, so it goes first (the answer
-    // does not depend on the order, only the work).
-    let mut order: Vec<(f64, Octant)> = Octant::ALL
-        .into_iter()
-        .map(|c| {
-            let (lo, hi) = child(c);
-            let p = (lo + hi) * 0.5;
-            let v = f.point([p.x, p.y, p.z, opts.t]).abs();
-            (if v.is_nan() { 0.0 } else { v }, c)
-        })
-        .collect();
-    order.sort_by(|x, y| x.0.total_cmp(&y.0));
-    order.iter().all(|&(_, c)| {
-        let (lo, hi) = child(c);
-        proves_empty(f, lo, hi, opts, depth - 1)
-    })
+    let children = Octant::ALL.map(|o| o.sub_box(a, m, b));
+    let boxes = children.map(|(lo, hi)| cell_input(lo, hi, opts.t));
+    let mut values = [WHOLE; 8];
+    f.interval_batch(&boxes, &mut values);
+    let mut open = (0..8).filter(|&c| !(values[c].defined && values[c].iv.excludes_zero()));
+    if depth > 1 {
+        return open.all(|c| proves_empty(f, children[c].0, children[c].1, opts, depth - 1));
+    }
+    // At the last level a piece on which `F` may be undefined fails.
+    if values.iter().any(|r| !r.defined) {
+        return false;
+    }
+    let open: Vec<[Interval; 4]> = open.map(|c| boxes[c]).collect();
+    examine(f, &open, opts, false).iter().all(|v| v.empty)
 }
 
 impl Octree {
@@ -150,5 +136,78 @@ impl Octree {
                 self.nodes[*i as usize].kind = Kind::Leaf(Leaf::Empty);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::Reference;
+    use crate::testing::{Rng, surface};
+
+    /// `x² − 1.9x + 1` stays above 0.0975, but its natural enclosures
+    /// hold 0 on every piece down to the last level of a three-level
+    /// search of `[0, 2] × [0, 1]²`: the mean-value form on the smallest
+    /// pieces proves the box empty, and a two-level search cannot. With a
+    /// root in the box (`x² − 1`), no search proves it empty. The JIT and
+    /// the interpreters alike.
+    #[test]
+    fn search_proves_a_loose_box_empty_at_its_last_level() {
+        let opts = OctreeOptions::default();
+        let (a, b) = (DVec3::ZERO, DVec3::new(2.0, 1.0, 1.0));
+        let loose = surface("domain [0, 2]^3; surface x*x - 1.9*x + 1;");
+        let crossed = surface("domain [0, 2]^3; surface x*x - 1;");
+        for (name, f) in [
+            ("jit", &loose as &dyn Evaluator),
+            ("interpreters", &Reference(loose.program.clone())),
+        ] {
+            assert!(!proves_empty(f, a, b, &opts, 2), "{name}: two levels");
+            assert!(proves_empty(f, a, b, &opts, 3), "{name}: three levels");
+        }
+        assert!(!proves_empty(&crossed, a, b, &opts, PROOF_DEPTH));
+        assert!(straddles(&crossed, a, b, 0.0));
+    }
+
+    /// On random small boxes near a CSG solid's surface (a rounded union
+    /// and a difference), a box proved empty holds no zero: 7³ samples
+    /// of it all have one sign. And the proof is found on some boxes that
+    /// one enclosure leaves open.
+    #[test]
+    fn boxes_proved_empty_hold_no_sign_change() {
+        let f = surface(
+            "domain [-1, 1]^3; \
+             let a = sqrt(x^2 + y^2 + z^2) - 0.5; \
+             let b = max(abs(x - 0.3) - 0.4, abs(y) - 0.2, abs(z + 0.1) - 0.3); \
+             let j = a + b - sqrt(a^2 + b^2); \
+             surface max(j, 0.15 - sqrt((x + 0.2)^2 + z^2));",
+        );
+        let opts = OctreeOptions::default();
+        let mut rng = Rng::new(7);
+        let (mut proved, mut open) = (0, 0);
+        for _ in 0..2000 {
+            let a = DVec3::new(rng.unit(), rng.unit(), rng.unit()) * 1.6 - 0.8;
+            let b = a + DVec3::splat(0.01 + 0.05 * rng.unit());
+            if f.interval(cell_input(a, b, 0.0)).iv.excludes_zero() {
+                continue;
+            }
+            open += 1;
+            if !proves_empty(&f, a, b, &opts, PROOF_DEPTH) {
+                continue;
+            }
+            proved += 1;
+            let n = 6.0;
+            let signs: Vec<bool> = (0..343)
+                .map(|i| {
+                    let k = DVec3::new((i % 7) as f64, (i / 7 % 7) as f64, (i / 49) as f64);
+                    let p = a + (b - a) * k / n;
+                    f.point([p.x, p.y, p.z, 0.0]) > 0.0
+                })
+                .collect();
+            assert!(
+                signs.iter().all(|&s| s == signs[0]),
+                "{a} {b}: a sign change"
+            );
+        }
+        assert!(proved > 0 && proved < open, "{proved} of {open} proved");
     }
 }

@@ -139,8 +139,16 @@ impl Tape {
     }
 
     /// The tape for the children of a node with box `cell`
-    /// that this tape evaluated. `full_len` is the full program's length.
-    pub(super) fn child(&self, cell: [Interval; 4], full_len: usize, store: &AtomicU64) -> Tape {
+    /// that this tape evaluated; `own` is this tape's program pruned on
+    /// `cell` when that was done already. `full_len` is the full program's
+    /// length.
+    pub(super) fn child(
+        &self,
+        cell: [Interval; 4],
+        own: Option<Program>,
+        full_len: usize,
+        store: &AtomicU64,
+    ) -> Tape {
         let Some(current) = &self.program else {
             return self.clone();
         };
@@ -152,7 +160,7 @@ impl Tape {
                 program: self.program.clone(),
             };
         }
-        let pruned: Program = prune::prune(&current.0, cell);
+        let pruned: Program = own.unwrap_or_else(|| prune::prune(&current.0, cell));
         // A new program only when it is a tenth shorter: the programs along
         // a path from the root shrink geometrically, and the memory they
         // hold stays within `STORE_LIMIT` instructions.
