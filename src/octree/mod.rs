@@ -55,8 +55,10 @@
 //! the topology test gets one more interval-gradient evaluation, along the
 //! sign pattern of its gradient enclosure ([`crease`]). The proof search
 //! below ambiguous leaves
-//! ([`Octree::clear_false_ambiguity`]) is recursive, one cell per call;
-//! the ambiguous leaves run in parallel.
+//! ([`Octree::clear_false_ambiguity`]) is recursive, each split's 8
+//! pieces one [`Evaluator::interval_batch`] (and the gradient tests on
+//! the open pieces of its last level one batch); the ambiguous leaves
+//! run in parallel.
 //!
 //! # Pruning
 //!
