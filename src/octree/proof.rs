@@ -60,7 +60,7 @@ pub(super) fn straddles<E: Evaluator + ?Sized>(f: &E, a: DVec3, b: DVec3, t: f64
         }
     }
     // A batch of one: the JIT compiles its single-box interval kernel
-    // apart, for no other call of a mesh run.
+    // apart, and the octree needs the batch kernel anyway.
     let mut r = [WHOLE];
     seen && (zero || {
         f.interval_batch(&[cell_input(a, b, t)], &mut r);
@@ -78,8 +78,8 @@ pub(super) fn straddles<E: Evaluator + ?Sized>(f: &E, a: DVec3, b: DVec3, t: f64
 /// the gradient kernel's own value enclosure), sharpest on the smallest
 /// boxes, get the last word, in one batch too.
 ///
-/// Most searches succeed (random CSG scenes: 90 % and more of the leaves
-/// searched, on the blends' loose enclosures), and a success evaluates
+/// Most searches succeed (on random CSG scenes, most of the leaves
+/// searched: `docs/faithful.md`, session 54), and a success evaluates
 /// every piece whatever the order: so the pieces are batched rather than
 /// ordered to fail fast.
 pub(super) fn proves_empty<E: Evaluator + ?Sized>(
@@ -168,10 +168,10 @@ mod tests {
         assert!(straddles(&crossed, a, b, 0.0));
     }
 
-    /// On random small boxes near a CSG solid's surface (a rounded union
-    /// and a difference), a box proved empty holds no zero: 7³ samples
-    /// of it all have one sign. And the proof is found on some boxes that
-    /// one enclosure leaves open.
+    /// On random small boxes near a CSG solid's surface (an R-function
+    /// union, less a cylinder), a box proved empty holds no zero: 7³
+    /// samples of it all have one sign. And the proof is found on some of
+    /// the boxes that one enclosure leaves open, not on all.
     #[test]
     fn boxes_proved_empty_hold_no_sign_change() {
         let f = surface(
