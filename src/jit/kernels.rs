@@ -170,10 +170,10 @@ impl Kernels {
 
     /// Compiles the given kinds now, in parallel (on rayon's pool), so
     /// that later calls do not pay for it: their batch entry points, and
-    /// for the interval kind the single-box entry point too (the octree's
-    /// emptiness proofs make single calls; the gradient's single-box entry
-    /// point is compiled on its first call). Failures are remembered (see
-    /// [`Kernels::engine`]).
+    /// for the interval kind the single-box entry point too (single calls,
+    /// [`Kernels::interval`]), which `--emit` then lists; the gradient's
+    /// single-box entry point is compiled on its first call. Failures are
+    /// remembered (see [`Kernels::engine`]).
     pub fn prepare(&self, kinds: &[Kind]) {
         rayon::scope(|s| {
             for &kind in kinds {
