@@ -235,6 +235,13 @@ impl DecInterval {
     pub fn new(iv: Interval, defined: bool) -> DecInterval {
         DecInterval { iv, defined }
     }
+
+    /// True when the enclosure proves the function has no zero on its box:
+    /// defined and continuous there, and `iv` on one side of 0
+    /// ([`Interval::excludes_zero`]).
+    pub fn excludes_zero(&self) -> bool {
+        self.defined && self.iv.excludes_zero()
+    }
 }
 
 /// [`crate::ir::semantics::enclose_binary`] for an op whose rule `rule` is total (defined and continuous

@@ -147,7 +147,7 @@ pub(super) fn reaches<E: Evaluator + ?Sized>(
     }
     let mut out = vec![DecInterval::new(Interval::ENTIRE, false); boxes.len()];
     f.interval_batch(&boxes, &mut out);
-    out.iter().any(|d| !(d.defined && d.iv.excludes_zero()))
+    out.iter().any(|d| !d.excludes_zero())
 }
 
 /// Gives the cells `cells[i]` for `i` in `open` (evaluated by `f`) a second
@@ -236,11 +236,10 @@ pub(super) fn examine<E: Evaluator + ?Sized>(
     }
     let mut values = vec![WHOLE; cells.len()];
     f.interval_batch(cells, &mut values);
-    let excluded = |v: &crate::interval::DecInterval| v.defined && v.iv.excludes_zero();
     let open: Vec<[Interval; 4]> = cells
         .iter()
         .zip(&values)
-        .filter(|(_, v)| !excluded(v))
+        .filter(|(_, v)| !v.excludes_zero())
         .map(|(c, _)| *c)
         .collect();
     let mut grads = vec![WHOLE_GRAD; open.len()];
@@ -259,7 +258,7 @@ pub(super) fn examine<E: Evaluator + ?Sized>(
         .iter()
         .zip(&values)
         .map(|(cell, v)| {
-            if excluded(v) {
+            if v.excludes_zero() {
                 return criteria::Verdict {
                     empty: true,
                     topology_ok: false,

@@ -61,8 +61,8 @@ pub(super) fn straddles<E: Evaluator + ?Sized>(f: &E, a: DVec3, b: DVec3, t: f64
     }
     // A batch of one: the JIT compiles its single-box interval kernel
     // apart, and the octree needs the batch kernel anyway.
-    let mut r = [WHOLE];
     seen && (zero || {
+        let mut r = [WHOLE];
         f.interval_batch(&[cell_input(a, b, t)], &mut r);
         r[0].defined
     })
@@ -97,7 +97,7 @@ pub(super) fn proves_empty<E: Evaluator + ?Sized>(
     let boxes = children.map(|(lo, hi)| cell_input(lo, hi, opts.t));
     let mut values = [WHOLE; 8];
     f.interval_batch(&boxes, &mut values);
-    let mut open = (0..8).filter(|&c| !(values[c].defined && values[c].iv.excludes_zero()));
+    let mut open = (0..8).filter(|&c| !values[c].excludes_zero());
     if depth > 1 {
         return open.all(|c| proves_empty(f, children[c].0, children[c].1, opts, depth - 1));
     }
@@ -187,7 +187,7 @@ mod tests {
         for _ in 0..2000 {
             let a = DVec3::new(rng.unit(), rng.unit(), rng.unit()) * 1.6 - 0.8;
             let b = a + DVec3::splat(0.01 + 0.05 * rng.unit());
-            if f.interval(cell_input(a, b, 0.0)).iv.excludes_zero() {
+            if f.interval(cell_input(a, b, 0.0)).excludes_zero() {
                 continue;
             }
             open += 1;
