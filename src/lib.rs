@@ -11,8 +11,10 @@
 //! surface(t) ──twin──▶ mechanical + geometric meshes per frame
 //! ```
 //!
-//! `geometry` (the box type), `interval` (interval arithmetic) and `error`
-//! (the union of every stage's error) sit beside the pipeline.
+//! `geometry` (the box type), `interval` (interval arithmetic), `error`
+//! (the union of every stage's error), `cancel` (stopping long work) and
+//! `parallel` (the thread the stages' parallel work starts from) sit
+//! beside the pipeline.
 //!
 //! # Use as a library
 //!
@@ -70,6 +72,7 @@ pub mod jit;
 pub mod mesh;
 pub mod mesher;
 pub mod octree;
+pub mod parallel;
 pub mod polygonize;
 pub mod roots;
 pub mod surface;

@@ -165,6 +165,18 @@ pub fn mesh_brick_from<E: Evaluator + ?Sized>(
     progress: &(dyn Fn(Stage) + Sync),
     cancel: &Cancel,
 ) -> Result<Part, Cancelled> {
+    crate::parallel::on_pool(|| mesh_brick_from_here(shared, domain, opts, brick, progress, cancel))
+}
+
+/// [`mesh_brick_from`] on the calling thread.
+fn mesh_brick_from_here<E: Evaluator + ?Sized>(
+    shared: &SharedLevels<'_, E>,
+    domain: Bounds,
+    opts: &MeshOptions,
+    brick: Brick,
+    progress: &(dyn Fn(Stage) + Sync),
+    cancel: &Cancel,
+) -> Result<Part, Cancelled> {
     let start = Instant::now();
     let f = shared.evaluator();
     let t = opts.octree.t;

@@ -237,6 +237,21 @@ fn mesh_refining<E: Evaluator + ?Sized>(
     progress: &(dyn Fn(Stage) + Sync),
     cancel: &Cancel,
 ) -> Result<(Mesh, MeshReport, Octree, Vec<bool>), Cancelled> {
+    crate::parallel::on_pool(|| {
+        mesh_refining_here(f, domain, opts, refine, analyze, progress, cancel)
+    })
+}
+
+/// [`mesh_refining`] on the calling thread.
+fn mesh_refining_here<E: Evaluator + ?Sized>(
+    f: &E,
+    domain: Bounds,
+    opts: &MeshOptions,
+    refine: &Refine,
+    analyze: bool,
+    progress: &(dyn Fn(Stage) + Sync),
+    cancel: &Cancel,
+) -> Result<(Mesh, MeshReport, Octree, Vec<bool>), Cancelled> {
     let start = Instant::now();
     let domain = opts.domain.unwrap_or(domain);
     let t = opts.octree.t;
@@ -480,6 +495,20 @@ pub fn mesh_to_tolerance<E: Evaluator + ?Sized>(
 /// is cancelled (checked in every pass as [`mesh_cancellable`] does, and
 /// after the adaptation).
 pub fn mesh_to_tolerance_cancellable<E: Evaluator + ?Sized>(
+    f: &E,
+    domain: Bounds,
+    opts: &MeshOptions,
+    tolerance: f64,
+    progress: &(dyn Fn(Stage) + Sync),
+    cancel: &Cancel,
+) -> Result<(Mesh, MeshReport, ToleranceReport), Cancelled> {
+    crate::parallel::on_pool(|| {
+        mesh_to_tolerance_cancellable_here(f, domain, opts, tolerance, progress, cancel)
+    })
+}
+
+/// [`mesh_to_tolerance_cancellable`] on the calling thread.
+fn mesh_to_tolerance_cancellable_here<E: Evaluator + ?Sized>(
     f: &E,
     domain: Bounds,
     opts: &MeshOptions,

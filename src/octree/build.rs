@@ -475,8 +475,18 @@ impl<'a, E: Evaluator + ?Sized> Run<'a, E> {
     /// Judges and grows level after level to the end; with `pause`, stops
     /// right after judging the level that settles the choices of
     /// evaluator (its verdicts kept, not applied: the region applies from
-    /// them on).
+    /// them on). Runs on a pool thread ([`crate::parallel::on_pool`]).
     pub(super) fn advance(
+        &mut self,
+        pause: bool,
+        progress: &(dyn Fn(u8, usize) + Sync),
+        cancel: &Cancel,
+    ) -> Result<(), Cancelled> {
+        crate::parallel::on_pool(|| self.advance_here(pause, progress, cancel))
+    }
+
+    /// [`Run::advance`] on the calling thread.
+    fn advance_here(
         &mut self,
         pause: bool,
         progress: &(dyn Fn(u8, usize) + Sync),

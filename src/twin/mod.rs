@@ -605,8 +605,14 @@ impl<'s, E: Evaluator + ?Sized> Tracker<'s, E> {
         }
     }
 
-    /// Advances to time `t`: one frame (see the module doc).
+    /// Advances to time `t`: one frame (see the module doc), on a pool
+    /// thread ([`crate::parallel::on_pool`]).
     pub fn advance(&mut self, t: f64) -> Result<FrameReport, TrackError> {
+        crate::parallel::on_pool(|| self.advance_here(t))
+    }
+
+    /// [`Tracker::advance`] on the calling thread.
+    fn advance_here(&mut self, t: f64) -> Result<FrameReport, TrackError> {
         if !t.is_finite() {
             return Err(TrackError::Time(t));
         }
