@@ -6,8 +6,14 @@
 //! steps (each colour class of each smoothing pass, each batch of each
 //! octree level), so its entry points first move the whole run onto a
 //! pool thread ([`on_pool`]), where each step starts on the thread that
-//! calls it. With one thread, that is 13–28 % of a random CSG scene's time
-//! at level 8 (`docs/faithful.md`, session 55).
+//! calls it. What that saves is measured in `docs/faithful.md` (session
+//! 55).
+//!
+//! The entry points that do: the octree's build (every `Octree::build*`),
+//! the mesher's runs ([`crate::mesher::mesh_with_cancellable`] and the
+//! functions over it, [`crate::mesher::mesh_to_tolerance_cancellable`]), a
+//! brick's ([`crate::mesher::brick::mesh_brick_from`]) and a tracker's
+//! frame ([`crate::twin::Tracker::advance`]).
 //!
 //! # Limits
 //!
