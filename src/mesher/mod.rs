@@ -220,7 +220,10 @@ pub fn mesh_with_cancellable<E: Evaluator + ?Sized>(
     cancel: &Cancel,
 ) -> Result<(Mesh, MeshReport), Cancelled> {
     let refine = Refine::default();
-    let (mesh, report, _, _) = mesh_refining(f, domain, opts, &refine, true, progress, cancel)?;
+    // On a pool thread ([`crate::parallel::on_pool`]).
+    let (mesh, report, _, _) = crate::parallel::on_pool(|| {
+        mesh_refining(f, domain, opts, &refine, true, progress, cancel)
+    })?;
     Ok((mesh, report))
 }
 
@@ -229,21 +232,6 @@ pub fn mesh_with_cancellable<E: Evaluator + ?Sized>(
 /// vertices' flags too. Without `analyze` the report's topology and
 /// `aspect_good` are left at their defaults (for a mesh changed next).
 fn mesh_refining<E: Evaluator + ?Sized>(
-    f: &E,
-    domain: Bounds,
-    opts: &MeshOptions,
-    refine: &Refine,
-    analyze: bool,
-    progress: &(dyn Fn(Stage) + Sync),
-    cancel: &Cancel,
-) -> Result<(Mesh, MeshReport, Octree, Vec<bool>), Cancelled> {
-    crate::parallel::on_pool(|| {
-        mesh_refining_here(f, domain, opts, refine, analyze, progress, cancel)
-    })
-}
-
-/// [`mesh_refining`] on the calling thread.
-fn mesh_refining_here<E: Evaluator + ?Sized>(
     f: &E,
     domain: Bounds,
     opts: &MeshOptions,
