@@ -63,7 +63,10 @@
 //!    gradients differ in length by 2× or more, also when, a quarter of
 //!    the way towards one of them and a tenth towards the other, they
 //!    differ by 0.8 of the gap (`STEEPER`: the steeper side's values meet
-//!    the other's off the point);
+//!    the other's off the point); or, where the point stands farther off
+//!    the crease than those looks reach, when along the path from one of
+//!    those vertices through the point to the other the gradient jumps
+//!    from one side's to the other's within 1/256 of the path (`jumps`);
 //!    where the fan below folds over a boundary edge with both ends on one
 //!    side of the crease, the point first slides along the crease to
 //!    where none does ([`fan_slide`]), if it stays on `f = 0` and in its
@@ -1018,7 +1021,8 @@ fn keeps_sign<E: Evaluator + ?Sized>(f: &E, t: f64, mean: DVec3, p: DVec3) -> bo
 /// turns by at least half the normals' `gap` ([`NEAR`]; on a smooth surface
 /// it turns by about that fraction of the patch's whole turn), or, where
 /// the two sides' gradients differ in length, by most of it a little
-/// farther towards one of them ([`STEEPER`]).
+/// farther towards one of them ([`STEEPER`]); or where the gradient jumps
+/// between the sides along the path through `q` ([`jumps`]).
 fn kinks<E: Evaluator + ?Sized>(f: &E, t: f64, q: DVec3, towards: [DVec3; 2], gap: f64) -> bool {
     let grad = |x: DVec3| DVec3::from_array(f.point_grad(at(x, t)).1);
     let unit_grad = |v: DVec3, near: f64| grad(q + (v - q) * near).normalize_or_zero();
@@ -1034,8 +1038,59 @@ fn kinks<E: Evaluator + ?Sized>(f: &E, t: f64, q: DVec3, towards: [DVec3; 2], ga
     // Sides whose gradients differ in length meet off the point.
     let [li, lj] = towards.map(|v| grad(v).length());
     let steeper = li.max(lj) / li.min(lj);
-    steeper >= STEEPER
-        && (turns([FARTHER, NEAR], FARTHER_SHARE) || turns([NEAR, FARTHER], FARTHER_SHARE))
+    (steeper >= STEEPER
+        && (turns([FARTHER, NEAR], FARTHER_SHARE) || turns([NEAR, FARTHER], FARTHER_SHARE)))
+        || jumps(f, t, [towards[0], q, towards[1]], gap)
+}
+
+/// Halvings of [`jumps`]' search: from a path about a cell long, the last
+/// piece is about 1/256 of a cell.
+const JUMP_HALVINGS: usize = 8;
+
+/// Whether the gradient jumps between a crease's two sides along the path
+/// `a → q → b` from one to the other of the two patch vertices whose
+/// normals differ most, through the feature point `q`. The half of the
+/// path, then of each piece, over which the unit gradient turns the more
+/// is kept: a kink keeps its whole jump in the piece, a bend of radius `ρ`
+/// turns by `ℓ/ρ` over a piece of length `ℓ`. It jumps where the last
+/// piece still turns by half the normals' `gap`, and each of its ends by
+/// at most a quarter of it from the path's end on its side (not a jump to
+/// a side's reverse, as across the middle of a thin wall).
+///
+/// [`kinks`]' looks a fixed share of the way towards `a` and `b` miss a
+/// kink that `q` stands off by more than that share: the least-squares
+/// point of a curved side's tangent planes, projected onto `f = 0`, stood
+/// up to a tenth of a cell off a cylinder's rim, and the cell kept its
+/// chamfer (`docs/faithful.md`, session 56).
+fn jumps<E: Evaluator + ?Sized>(f: &E, t: f64, [a, q, b]: [DVec3; 3], gap: f64) -> bool {
+    let unit = |x: DVec3| {
+        let g = DVec3::from_array(f.point_grad(at(x, t)).1);
+        (x, g.normalize_or_zero())
+    };
+    // The turn between two unit gradients; −1 where either is missing.
+    let turn = |g: DVec3, h: DVec3| {
+        if g == DVec3::ZERO || h == DVec3::ZERO {
+            -1.0
+        } else {
+            g.dot(h).clamp(-1.0, 1.0).acos()
+        }
+    };
+    let (ea, eq, eb) = (unit(a), unit(q), unit(b));
+    let (mut lo, mut hi) = if turn(ea.1, eq.1) >= turn(eq.1, eb.1) {
+        (ea, eq)
+    } else {
+        (eq, eb)
+    };
+    for _ in 0..JUMP_HALVINGS {
+        let m = unit(lo.0.midpoint(hi.0));
+        if turn(lo.1, m.1) >= turn(m.1, hi.1) {
+            hi = m;
+        } else {
+            lo = m;
+        }
+    }
+    let side = |g: DVec3, end: DVec3| (0.0..=0.25 * gap).contains(&turn(g, end));
+    side(lo.1, ea.1) && side(hi.1, eb.1) && turn(lo.1, hi.1) >= 0.5 * gap
 }
 
 /// Where the crease line `(p, dir)` (a point and its direction) leaves Ω

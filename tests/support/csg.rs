@@ -814,19 +814,26 @@ pub fn mesh_and_check(s: &Surface, level: u8, plain: bool, reference: bool) -> O
 /// Tolerance of "on the surface", in finest cells times `|∇f|`.
 pub const ON_SURFACE: f64 = 1e-6;
 
-/// The vertices whose normal faces against their fan (the sum of their
+/// The vertices whose normal faces into the solid (`f` a step `h` along it
+/// below `f` a step against it) and against their fan (the sum of their
 /// triangles' area vectors), more than 120° off it: at a kink where two
 /// CSG sides tie exactly at the vertex (a face two primitives share), the
 /// gradient there may be the inner side's, opposite the face, and it
 /// misleads every stage that reads normals. Not part of [`check_mesh`]:
 /// at a sharp crease a one-sided gradient may lie more than 90° off a
-/// lopsided fan (colonnade.vm at level 6: 94° and 104°).
-pub fn normals_against_fans(mesh: &Mesh) -> Vec<usize> {
+/// lopsided fan (colonnade.vm at level 6: 94° and 104°), and on a ledge
+/// narrower than a cell the fan does not follow the surface at all (a
+/// vertex on colonnade.vm's ledge a third of a cell wide, at level 6, has
+/// the ledge's outward normal 136° off its fan).
+pub fn normals_against_fans(s: &Surface, mesh: &Mesh, h: f64) -> Vec<usize> {
     let fan = fan_normals(mesh);
+    let f = |q: DVec3| s.point([q.x, q.y, q.z, 0.0]);
     (0..mesh.positions.len())
         .filter(|&i| {
-            let f = fan[i].normalize_or_zero();
-            mesh.normals.get(i).is_some_and(|n| n.dot(f) < -0.5)
+            let (p, fan) = (mesh.positions[i], fan[i].normalize_or_zero());
+            mesh.normals
+                .get(i)
+                .is_some_and(|&n| n.dot(fan) < -0.5 && f(p + h * n) <= f(p - h * n))
         })
         .collect()
 }
