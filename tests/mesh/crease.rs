@@ -599,9 +599,9 @@ fn a_pyramids_apex_is_a_point() {
 
 /// A cylinder, skew to the grid, keeps both rims all round (its cap and
 /// side meet at 90°). The least-squares point of a cell's tangent planes
-/// (curved ones on the side), projected onto `f = 0`, may stand up to a
-/// tenth of a cell off the rim, past where the kink test's first look
-/// finds the two sides' gradients; the cell then kept its chamfer. Now the
+/// (curved ones on the side), projected onto `f = 0`, may stand a tenth of
+/// a cell off the rim, past where the kink test's first look finds the
+/// two sides' gradients; the cell then kept its chamfer. Now the
 /// kink is also looked for along the path between the patch's two sides.
 /// Before, at level 7, 592 cells got a feature point and 38 centroids stood
 /// more than 0.1 cells off (99.9th percentile 0.056 cells, the largest

@@ -33,7 +33,7 @@
 use std::time::Instant;
 
 use crate::support::csg::{
-    Config, Outcome, Scene, compile, describe, mesh_and_check, normals_against_fans, options,
+    Config, Outcome, Scene, compile, describe, inward_normals_against_fans, mesh_and_check, options,
 };
 use isoc::Surface;
 
@@ -254,7 +254,7 @@ fn normals_at_exact_ties_face_outward() {
         let (mesh, _) = isoc::mesher::mesh(&s, &options(6, plain), &|_| {});
         // A hundredth of a cell at level 6.
         let h = (s.domain.hi[0] - s.domain.lo[0]) / 6400.0;
-        let against = normals_against_fans(&s, &mesh, h);
+        let against = inward_normals_against_fans(&s, &mesh, h);
         assert!(
             against.is_empty(),
             "plain {plain}: {} vertex normal(s) against their fans, e.g. at {:?}",

@@ -825,7 +825,7 @@ pub const ON_SURFACE: f64 = 1e-6;
 /// narrower than a cell the fan does not follow the surface at all (a
 /// vertex on colonnade.vm's ledge a third of a cell wide, at level 6, has
 /// the ledge's outward normal 136° off its fan).
-pub fn normals_against_fans(s: &Surface, mesh: &Mesh, h: f64) -> Vec<usize> {
+pub fn inward_normals_against_fans(s: &Surface, mesh: &Mesh, h: f64) -> Vec<usize> {
     let fan = fan_normals(mesh);
     let f = |q: DVec3| s.point([q.x, q.y, q.z, 0.0]);
     (0..mesh.positions.len())
