@@ -1036,11 +1036,12 @@ fn kinks<E: Evaluator + ?Sized>(f: &E, t: f64, q: DVec3, towards: [DVec3; 2], ga
         return true;
     }
     // Sides whose gradients differ in length meet off the point.
-    let [li, lj] = towards.map(|v| grad(v).length());
+    let ends = towards.map(grad);
+    let [li, lj] = ends.map(DVec3::length);
     let steeper = li.max(lj) / li.min(lj);
     (steeper >= STEEPER
         && (turns([FARTHER, NEAR], FARTHER_SHARE) || turns([NEAR, FARTHER], FARTHER_SHARE)))
-        || jumps(f, t, [towards[0], q, towards[1]], gap)
+        || jumps(f, t, [towards[0], q, towards[1]], ends, gap)
 }
 
 /// Halvings of [`jumps`]' search: from a path about a cell long, the last
@@ -1055,14 +1056,21 @@ const JUMP_HALVINGS: usize = 8;
 /// turns by `ℓ/ρ` over a piece of length `ℓ`. It jumps where the last
 /// piece still turns by half the normals' `gap`, and each of its ends by
 /// at most a quarter of it from the path's end on its side (not a jump to
-/// a side's reverse, as across the middle of a thin wall).
+/// a side's reverse, as across the middle of a thin wall). `ends` are the
+/// gradients at `a` and `b`, which [`kinks`] has read already.
 ///
 /// [`kinks`]' looks a fixed share of the way towards `a` and `b` miss a
 /// kink that `q` stands off by more than that share: the least-squares
 /// point of a curved side's tangent planes, projected onto `f = 0`, stood
 /// a tenth of a cell off a cylinder's rim (0.08–0.13 cells at depth 8),
 /// and the cell kept its chamfer (`docs/faithful.md`, session 56).
-fn jumps<E: Evaluator + ?Sized>(f: &E, t: f64, [a, q, b]: [DVec3; 3], gap: f64) -> bool {
+fn jumps<E: Evaluator + ?Sized>(
+    f: &E,
+    t: f64,
+    [a, q, b]: [DVec3; 3],
+    ends: [DVec3; 2],
+    gap: f64,
+) -> bool {
     let unit = |x: DVec3| {
         let g = DVec3::from_array(f.point_grad(at(x, t)).1);
         (x, g.normalize_or_zero())
@@ -1075,7 +1083,11 @@ fn jumps<E: Evaluator + ?Sized>(f: &E, t: f64, [a, q, b]: [DVec3; 3], gap: f64) 
             g.dot(h).clamp(-1.0, 1.0).acos()
         }
     };
-    let (ea, eq, eb) = (unit(a), unit(q), unit(b));
+    let (ea, eq, eb) = (
+        (a, ends[0].normalize_or_zero()),
+        unit(q),
+        (b, ends[1].normalize_or_zero()),
+    );
     let (mut lo, mut hi) = if turn(ea.1, eq.1) >= turn(eq.1, eb.1) {
         (ea, eq)
     } else {
