@@ -71,7 +71,7 @@ pub(super) fn emit_entry(
 ) {
     let params: Vec<Value> = env.b.block_params(entry).to_vec();
     match kind {
-        Kind::PointGrad => pgrad::emit_batch(env, prog, &params),
+        Kind::PointGrad => pgrad::emit_batch(env, prog, &params, opts.simd),
         Kind::Point if batch && opts.simd => simd::emit_point_batch(env, prog, &params),
         Kind::Point if batch => {
             let f = Env::flags();

@@ -10,8 +10,21 @@
 //! interval kinds enclosures at least as sound). A compilation failure is
 //! remembered; the safe methods fall back to the interpreters as well, and
 //! [`Kernels::engine`] says which ran.
+//!
+//! The point gradient has two tiers. Its first kernel evaluates one point
+//! per iteration and compiles fast; once its batches of two or more points
+//! have evaluated [`JitOptions::point_grad_wide_after`] points in all (over
+//! every run that shares the kernels), the call that crosses the count
+//! compiles a second, two points per iteration in `F64X2`, which later
+//! batches use (the other threads go on with the first meanwhile). A
+//! single point stays on the first. Both give the same bits, so a mesh
+//! does not depend on when the switch happens. A small model never pays
+//! for the second compile; a large one, or a surface meshed again (an
+//! animation, a library user's loop), runs its point gradients about
+//! twice as fast.
 
 use std::sync::OnceLock;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Duration;
 
 use super::module::{ModuleOwner, build};
@@ -62,6 +75,16 @@ pub struct Kernels {
     interval: Lazy<(), BoxBatchFn>,
     grad: Lazy<(), BoxBatchFn>,
     pgrad: Lazy<(), PointGradBatchFn>,
+    /// The point gradient's second tier: two points per iteration, compiled
+    /// once [`JitOptions::point_grad_wide_after`] points have gone through
+    /// `pgrad`'s batches (see [`Kernels::point_grad_batch`]).
+    pgrad_wide: Lazy<(), PointGradBatchFn>,
+    /// Points evaluated by batch calls of two or more, until `pgrad_wide`
+    /// is started.
+    pgrad_points: AtomicUsize,
+    /// Whether a caller has taken on compiling `pgrad_wide` (the others
+    /// go on with `pgrad` meanwhile).
+    pgrad_wide_started: AtomicBool,
     interval_one: OnceLock<Result<One<IntervalFn>, JitError>>,
     grad_one: OnceLock<Result<One<BoxFn>, JitError>>,
     // Field order matters: the modules (code) are dropped before the pool,
@@ -162,6 +185,9 @@ impl Kernels {
             interval: OnceLock::new(),
             grad: OnceLock::new(),
             pgrad: OnceLock::new(),
+            pgrad_wide: OnceLock::new(),
+            pgrad_points: AtomicUsize::new(0),
+            pgrad_wide_started: AtomicBool::new(false),
             interval_one: OnceLock::new(),
             grad_one: OnceLock::new(),
             pool,
@@ -209,6 +235,7 @@ impl Kernels {
         &self,
         kind: Kind,
         batches: &[bool],
+        opts: &JitOptions,
     ) -> Result<(ModuleOwner, Vec<*const u8>, Vec<KernelInfo>), JitError> {
         if self.program.len() > self.opts.jit_limit {
             return Err(JitError::TooLarge {
@@ -219,19 +246,25 @@ impl Kernels {
         build(
             &self.program,
             self.pool.as_ptr() as i64,
-            &self.opts,
+            opts,
             kind,
             batches,
         )
     }
 
-    fn compile_kind<S: Single, B: Copy>(&self, kind: Kind) -> Result<Entry<S, B>, JitError> {
+    /// The entry points of `kind`, compiled with `opts` (the kernels'
+    /// options, or the point gradient's tier's).
+    fn compile_kind<S: Single, B: Copy>(
+        &self,
+        kind: Kind,
+        opts: &JitOptions,
+    ) -> Result<Entry<S, B>, JitError> {
         let batches: &[bool] = if kind == Kind::Point {
             &[false, true]
         } else {
             &[true]
         };
-        let (module, p, info) = self.build(kind, batches)?;
+        let (module, p, info) = self.build(kind, batches, opts)?;
         // SAFETY: `p` are the finalized entry points of `kind` (single then
         // batch for the point kind, batch only otherwise: `S::from_code`
         // takes the first of two or none), declared with `entry_sig`'s
@@ -261,7 +294,7 @@ impl Kernels {
                 "no SSE4.1 for the single-box bracket".into(),
             ));
         }
-        let (module, p, info) = self.build(kind, &[false])?;
+        let (module, p, info) = self.build(kind, &[false], &self.opts)?;
         // SAFETY: `p[0]` is the finalized single-box entry point of `kind`,
         // declared with `entry_sig(kind, false)`: `IntervalFn` for the
         // interval kind and `BoxFn` for the gradient, the types `F` stands
@@ -289,24 +322,59 @@ impl Kernels {
     }
 
     fn point_k(&self) -> Result<&Entry<PointFn, PointBatchFn>, JitError> {
-        let r = self.point.get_or_init(|| self.compile_kind(Kind::Point));
+        let r = self
+            .point
+            .get_or_init(|| self.compile_kind(Kind::Point, &self.opts));
         r.as_ref().map_err(Clone::clone)
     }
     fn interval_k(&self) -> Result<&Entry<(), BoxBatchFn>, JitError> {
         let r = self
             .interval
-            .get_or_init(|| self.compile_kind(Kind::Interval));
+            .get_or_init(|| self.compile_kind(Kind::Interval, &self.opts));
         r.as_ref().map_err(Clone::clone)
     }
     fn grad_k(&self) -> Result<&Entry<(), BoxBatchFn>, JitError> {
-        let r = self.grad.get_or_init(|| self.compile_kind(Kind::Grad));
+        let r = self
+            .grad
+            .get_or_init(|| self.compile_kind(Kind::Grad, &self.opts));
         r.as_ref().map_err(Clone::clone)
     }
+    /// The point gradient's first tier: one point per iteration (the
+    /// faster compile).
     fn pgrad_k(&self) -> Result<&Entry<(), PointGradBatchFn>, JitError> {
-        let r = self
-            .pgrad
-            .get_or_init(|| self.compile_kind(Kind::PointGrad));
+        let r = self.pgrad.get_or_init(|| {
+            let one_lane = JitOptions {
+                simd: false,
+                ..self.opts
+            };
+            self.compile_kind(Kind::PointGrad, &one_lane)
+        });
         r.as_ref().map_err(Clone::clone)
+    }
+
+    /// The batch point-gradient kernel for a batch of `n` points: the
+    /// second tier once it is compiled — by this call, when it brings the
+    /// points counted past [`JitOptions::point_grad_wide_after`] — else
+    /// the first. A batch of one stays on the first tier, which evaluates
+    /// one point per iteration anyway (the second would evaluate a spare
+    /// lane), and is not counted.
+    fn pgrad_batch_for(&self, n: usize) -> Result<PointGradBatchFn, JitError> {
+        if let Some(Ok(e)) = self.pgrad_wide.get() {
+            return Ok(e.batch);
+        }
+        let after = self.opts.point_grad_wide_after;
+        if n >= 2 && self.opts.simd && after != usize::MAX {
+            let seen = self.pgrad_points.fetch_add(n, Ordering::Relaxed) + n;
+            if seen > after && !self.pgrad_wide_started.swap(true, Ordering::Relaxed) {
+                let wide = self
+                    .pgrad_wide
+                    .get_or_init(|| self.compile_kind(Kind::PointGrad, &self.opts));
+                if let Ok(e) = wide {
+                    return Ok(e.batch);
+                }
+            }
+        }
+        self.pgrad_k().map(|k| k.batch)
     }
 
     /// Info on every entry point compiled so far (name, code size, compile
@@ -328,8 +396,10 @@ impl Kernels {
         if let Some(Ok(e)) = self.grad.get() {
             v.extend(e.info.iter().cloned());
         }
-        if let Some(Ok(e)) = self.pgrad.get() {
-            v.extend(e.info.iter().cloned());
+        for tier in [&self.pgrad, &self.pgrad_wide] {
+            if let Some(Ok(e)) = tier.get() {
+                v.extend(e.info.iter().cloned());
+            }
         }
         v
     }
@@ -385,7 +455,8 @@ impl Kernels {
     pub fn grad_batch_fn(&self) -> Result<BoxBatchFn, JitError> {
         Ok(self.grad_k()?.batch)
     }
-    /// The raw batch point-gradient kernel.
+    /// The raw batch point-gradient kernel (the first tier's: see the
+    /// module doc).
     pub fn point_grad_batch_fn(&self) -> Result<PointGradBatchFn, JitError> {
         Ok(self.pgrad_k()?.batch)
     }
@@ -534,7 +605,8 @@ impl Kernels {
     }
 
     /// `out[4i..4i+4] = [f, fx, fy, fz]` at `(xs[i], ys[i], zs[i], t)`;
-    /// `xs ys zs` of one length `n`, `out` of `4n`.
+    /// `xs ys zs` of one length `n`, `out` of `4n`. By either tier of the
+    /// kernel (the module doc), with the same results.
     pub fn point_grad_batch(
         &self,
         xs: &[f64],
@@ -543,7 +615,7 @@ impl Kernels {
         t: f64,
         out: &mut [f64],
     ) -> Result<(), JitError> {
-        let k = self.pgrad_k().map(|k| k.batch);
+        let k = self.pgrad_batch_for(xs.len());
         columns_batch(k, [xs, ys, zs], t, out, 4, |p, o| {
             let (v, g) = crate::eval::grad::eval_point(&self.program, p);
             o.copy_from_slice(&[v, g[0], g[1], g[2]]);

@@ -84,7 +84,10 @@
 //! vector op with the scalar op's semantics lane-wise, helper ops called
 //! once per lane, an odd last point evaluated in both lanes of the same
 //! body; results are bit for bit the single-point kernel's (NaN payloads
-//! aside). The single-point kernel stays scalar. Measurements and what was
+//! aside). The single-point kernel stays scalar. The point gradient's
+//! batch kernel has a two-point form too, its second tier, compiled once
+//! enough points have gone through the first
+//! ([`JitOptions::point_grad_wide_after`]; [`Kernels`]' module doc). Measurements and what was
 //! tried and dropped: `docs/jit.md` ("SIMD").
 //!
 //! # Constants
@@ -250,10 +253,23 @@ pub struct JitOptions {
     /// reference interpreters run them ([`Engine::Interpreter`]).
     pub jit_limit: usize,
     /// Emit the batch point kernel two points at a time in `F64X2`
-    /// vectors (see [`simd`]); `false` gives the scalar loop. Same results
-    /// either way. Default on.
+    /// vectors (see [`simd`]); `false` gives the scalar loop, and no
+    /// second tier for the point gradient. Same results either way.
+    /// Default on.
     pub simd: bool,
+    /// With `simd`, the batch point-gradient calls switch to a second
+    /// kernel, two points per iteration, once this many points have been
+    /// evaluated in batches of two or more by the first, one point per
+    /// iteration; the call that crosses the count compiles it. Same
+    /// results either way. `0`: from the first such batch; `usize::MAX`:
+    /// never. Default [`POINT_GRAD_WIDE_AFTER`].
+    pub point_grad_wide_after: usize,
 }
+
+/// The default of [`JitOptions::point_grad_wide_after`]: the point count
+/// past which the second tier has repaid its compile time
+/// (`docs/jit.md`, "The point gradient's two tiers").
+pub const POINT_GRAD_WIDE_AFTER: usize = 100_000;
 
 impl Default for JitOptions {
     fn default() -> Self {
@@ -264,6 +280,7 @@ impl Default for JitOptions {
             single_pass_above: 2_000,
             jit_limit: 200_000,
             simd: true,
+            point_grad_wide_after: POINT_GRAD_WIDE_AFTER,
         }
     }
 }

@@ -36,46 +36,63 @@
 //! results are reproduced exactly.
 //!
 //! The rules are [`PointGradNum`]'s, the point-gradient kind of the one
-//! lowering ([`super::lower`]).
+//! lowering ([`super::lower`]), at either lane width of the point kind
+//! ([`super::point::Width`]): one point per iteration of the batch loop,
+//! or two in `F64X2` ([`super::simd`]; selects by lane masks, each helper
+//! called once per lane), each lane bit for bit the one-point form. The
+//! two-point form is the second tier of [`super::Kernels`]' point
+//! gradient: it runs about twice as fast per point and takes two to three
+//! times as long to compile (`docs/jit.md`, "The point gradient's two
+//! tiers").
 
 use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{InstBuilder, Value, types};
 
+use std::marker::PhantomData;
+
 use super::helpers::{self, Helper, PG_BINARY_BASE};
 use super::lower::{NumKind, body};
-use super::point::{PointNum, Scalar, div_nan, powi_chain};
+use super::point::{PointNum, Scalar, Width, powi_chain};
+use super::simd::{X2, emit_loop};
 use super::{Env, batch_loop};
 use crate::ir::{BinOp, Const, Program, UnOp, Var};
 
 /// `(v, ∂x, ∂y, ∂z)`.
 pub(super) type Dual = [Value; 4];
 
-/// The point-gradient kind of the one lowering ([`super::lower`]): values
+/// The point-gradient kind of the one lowering ([`super::lower`]) at lane
+/// width `W` (one point, or two in the batch loop's `F64X2` body): values
 /// by the point kind's rules ([`PointNum`]), derivatives by the rules of
-/// the module doc. It holds the SSA constants its rules share.
-struct PointGradNum {
+/// the module doc, the same IEEE operations in every lane. It holds the
+/// SSA constants its rules share.
+struct PointGradNum<W> {
     zero: Value,
     one: Value,
     two: Value,
     nan: Value,
+    p: PointNum<W>,
+    _w: PhantomData<W>,
 }
 
-/// The point kind, which computes the values.
-const P: PointNum<Scalar> = PointNum::new();
-
-impl PointGradNum {
+impl<W: Width> PointGradNum<W> {
     /// Emits the constants.
-    fn new(env: &mut Env) -> PointGradNum {
+    fn new(env: &mut Env) -> PointGradNum<W> {
+        let mut splat = |x: f64| {
+            let s = env.b.ins().f64const(x);
+            W::splat(env, s)
+        };
         PointGradNum {
-            zero: env.b.ins().f64const(0.0),
-            one: env.b.ins().f64const(1.0),
-            two: env.b.ins().f64const(2.0),
-            nan: env.b.ins().f64const(f64::NAN),
+            zero: splat(0.0),
+            one: splat(1.0),
+            two: splat(2.0),
+            nan: splat(f64::NAN),
+            p: PointNum::new(),
+            _w: PhantomData,
         }
     }
 }
 
-impl NumKind for PointGradNum {
+impl<W: Width> NumKind for PointGradNum<W> {
     type In = Value;
     type V = Dual;
     /// The dual and whether it needs the NaN select.
@@ -90,7 +107,7 @@ impl NumKind for PointGradNum {
     }
 
     fn konst(&self, env: &mut Env, i: usize, c: Const) -> (Dual, bool) {
-        let v = P.konst(env, i, c);
+        let v = self.p.konst(env, i, c);
         let d = if c.value.is_nan() {
             self.nan
         } else {
@@ -100,44 +117,43 @@ impl NumKind for PointGradNum {
     }
 
     fn neg(&self, env: &mut Env, a: Dual) -> (Dual, bool) {
-        (a.map(|x| P.neg(env, x)), false)
+        (a.map(|x| self.p.neg(env, x)), false)
     }
 
     fn abs(&self, env: &mut Env, a: Dual) -> (Dual, bool) {
-        let v = P.abs(env, a[0]);
-        let zero = env.b.ins().f64const(0.0);
-        let neg = env.b.ins().fcmp(FloatCC::LessThan, a[0], zero);
+        let v = self.p.abs(env, a[0]);
+        let neg = W::test(env, FloatCC::LessThan, a[0], self.zero);
         let d = [1, 2, 3].map(|k| {
             let m = env.b.ins().fneg(a[k]);
-            env.b.ins().select(neg, m, a[k])
+            W::pick(env, neg, m, a[k])
         });
         ([v, d[0], d[1], d[2]], false)
     }
 
     fn sqrt(&self, env: &mut Env, a: Dual) -> (Dual, bool) {
-        let v = P.sqrt(env, a[0]);
+        let v = self.p.sqrt(env, a[0]);
         let two_v = env.b.ins().fmul(self.two, v);
-        let d = [1, 2, 3].map(|k| div_nan(env, a[k], two_v));
+        let d = [1, 2, 3].map(|k| W::div_nan(env, a[k], two_v));
         ([v, d[0], d[1], d[2]], false)
     }
 
     fn square(&self, env: &mut Env, a: Dual) -> (Dual, bool) {
-        let v = P.square(env, a[0]);
+        let v = self.p.square(env, a[0]);
         let two_a = env.b.ins().fmul(self.two, a[0]);
         let d = [1, 2, 3].map(|k| env.b.ins().fmul(two_a, a[k]));
         ([v, d[0], d[1], d[2]], false)
     }
 
     fn add(&self, env: &mut Env, a: Dual, b: Dual) -> (Dual, bool) {
-        ([0, 1, 2, 3].map(|k| P.add(env, a[k], b[k])), true)
+        ([0, 1, 2, 3].map(|k| self.p.add(env, a[k], b[k])), true)
     }
 
     fn sub(&self, env: &mut Env, a: Dual, b: Dual) -> (Dual, bool) {
-        ([0, 1, 2, 3].map(|k| P.sub(env, a[k], b[k])), true)
+        ([0, 1, 2, 3].map(|k| self.p.sub(env, a[k], b[k])), true)
     }
 
     fn mul(&self, env: &mut Env, a: Dual, b: Dual) -> (Dual, bool) {
-        let v = P.mul(env, a[0], b[0]);
+        let v = self.p.mul(env, a[0], b[0]);
         let d = [1, 2, 3].map(|k| {
             let p = env.b.ins().fmul(a[k], b[0]);
             let q = env.b.ins().fmul(a[0], b[k]);
@@ -147,27 +163,27 @@ impl NumKind for PointGradNum {
     }
 
     fn div(&self, env: &mut Env, a: Dual, b: Dual) -> (Dual, bool) {
-        let v = P.div(env, a[0], b[0]);
+        let v = self.p.div(env, a[0], b[0]);
         let d = [1, 2, 3].map(|k| {
             let p = env.b.ins().fmul(v, b[k]);
             let q = env.b.ins().fsub(a[k], p);
-            div_nan(env, q, b[0])
+            W::div_nan(env, q, b[0])
         });
         ([v, d[0], d[1], d[2]], true)
     }
 
     fn min(&self, env: &mut Env, a: Dual, b: Dual) -> (Dual, bool) {
-        let v = P.min(env, a[0], b[0]);
-        (select(env, v, FloatCC::LessThan, a, b), true)
+        let v = self.p.min(env, a[0], b[0]);
+        (select::<W>(env, v, FloatCC::LessThan, a, b), true)
     }
 
     fn max(&self, env: &mut Env, a: Dual, b: Dual) -> (Dual, bool) {
-        let v = P.max(env, a[0], b[0]);
-        (select(env, v, FloatCC::GreaterThan, a, b), true)
+        let v = self.p.max(env, a[0], b[0]);
+        (select::<W>(env, v, FloatCC::GreaterThan, a, b), true)
     }
 
     fn powi(&self, env: &mut Env, i: usize, a: Dual, n: i64) -> (Dual, bool) {
-        let v = P.powi(env, i, a[0], n);
+        let v = self.p.powi(env, i, a[0], n);
         if n == 0 {
             return ([v, self.zero, self.zero, self.zero], false);
         }
@@ -179,22 +195,26 @@ impl NumKind for PointGradNum {
             m if m > 0 => powi_chain(env, a[0], m as u64),
             m => {
                 let q = powi_chain(env, a[0], m.unsigned_abs());
-                div_nan(env, self.one, q)
+                W::div_nan(env, self.one, q)
             }
         };
         let nf = env.b.ins().f64const(n as f64);
+        let nf = W::splat(env, nf);
         let f = env.b.ins().fmul(nf, p);
         let d = [1, 2, 3].map(|k| env.b.ins().fmul(f, a[k]));
         ([v, d[0], d[1], d[2]], true)
     }
 
     fn unary_call(&self, env: &mut Env, u: UnOp, a: Dual) -> (Dual, bool) {
-        (call_pg(env, helpers::unop_code(u), a, None), true)
+        (
+            call_pg_lanes::<W>(env, helpers::unop_code(u), a, None),
+            true,
+        )
     }
 
     fn binary_call(&self, env: &mut Env, op: BinOp, a: Dual, b: Dual) -> (Dual, bool) {
         let code = helpers::binop_code(op) + PG_BINARY_BASE;
-        (call_pg(env, code, a, Some(b)), true)
+        (call_pg_lanes::<W>(env, code, a, Some(b)), true)
     }
 
     /// Where the value is NaN, the derivatives are NaN (when the rule
@@ -208,24 +228,35 @@ impl NumKind for PointGradNum {
         if !poison {
             return r;
         }
-        let isnan = env.b.ins().fcmp(FloatCC::Unordered, r[0], r[0]);
-        let d = [1, 2, 3].map(|k| env.b.ins().select(isnan, self.nan, r[k]));
+        let isnan = W::test(env, FloatCC::Unordered, r[0], r[0]);
+        let d = [1, 2, 3].map(|k| W::pick(env, isnan, self.nan, r[k]));
         [r[0], d[0], d[1], d[2]]
     }
 }
 
 /// The derivatives of `min`/`max` of value `v`: `b'` where `b cc a`
 /// (`<` for `min`, `>` for `max`), else `a'` (the first operand on ties).
-fn select(env: &mut Env, v: Value, cc: FloatCC, a: Dual, b: Dual) -> Dual {
-    let second = env.b.ins().fcmp(cc, b[0], a[0]);
-    let d = [1, 2, 3].map(|k| env.b.ins().select(second, b[k], a[k]));
+fn select<W: Width>(env: &mut Env, v: Value, cc: FloatCC, a: Dual, b: Dual) -> Dual {
+    let second = W::test(env, cc, b[0], a[0]);
+    let d = [1, 2, 3].map(|k| W::pick(env, second, b[k], a[k]));
     [v, d[0], d[1], d[2]]
 }
 
-/// Emits the body; returns the output's dual.
-pub(super) fn lower(env: &mut Env, prog: &Program, input: [Value; 4]) -> Dual {
-    let k = PointGradNum::new(env);
+/// Emits the body at width `W`; returns the output's dual.
+fn lower<W: Width>(env: &mut Env, prog: &Program, input: [Value; 4]) -> Dual {
+    let k = PointGradNum::<W>::new(env);
     body(env, &k, prog, input)
+}
+
+/// [`call_pg`] in each lane.
+fn call_pg_lanes<W: Width>(env: &mut Env, code: u32, a: Dual, b: Option<Dual>) -> Dual {
+    let args: Vec<Value> = a.iter().chain(b.iter().flatten()).copied().collect();
+    let r = W::per_lane(env, &args, |env, lane| {
+        let a = [lane[0], lane[1], lane[2], lane[3]];
+        let b = b.map(|_| [lane[4], lane[5], lane[6], lane[7]]);
+        call_pg(env, code, a, b).to_vec()
+    });
+    [r[0], r[1], r[2], r[3]]
 }
 
 /// Calls `isoc_pg_op(code, a, b, out)` through a 96-byte stack slot (`a` at
@@ -250,8 +281,14 @@ fn call_pg(env: &mut Env, code: u32, a: Dual, b: Option<Dual>) -> Dual {
     [0, 1, 2, 3].map(|k| env.b.ins().load(types::F64, f, po, 8 * k))
 }
 
-/// Emits the batch entry point's body (`fn(xs, ys, zs, t, out, n)`).
-pub(super) fn emit_batch(env: &mut Env, prog: &Program, params: &[Value]) {
+/// Emits the batch entry point's body (`fn(xs, ys, zs, t, out, n)`): two
+/// points per iteration with `simd` ([`super::simd`]'s loop), else one.
+pub(super) fn emit_batch(env: &mut Env, prog: &Program, params: &[Value], simd: bool) {
+    if simd {
+        return emit_loop(env, params, |env, input| {
+            lower::<X2>(env, prog, input).to_vec()
+        });
+    }
     let f = Env::flags();
     batch_loop(env, params[5], |env, i| {
         let off = env.b.ins().imul_imm_s(i, 8);
@@ -259,7 +296,7 @@ pub(super) fn emit_batch(env: &mut Env, prog: &Program, params: &[Value]) {
             let a = env.b.ins().iadd(params[k], off);
             env.b.ins().load(types::F64, f, a, 0)
         });
-        let r = lower(env, prog, [xyz[0], xyz[1], xyz[2], params[3]]);
+        let r = lower::<Scalar>(env, prog, [xyz[0], xyz[1], xyz[2], params[3]]);
         let out_off = env.b.ins().imul_imm_s(i, 32);
         let oa = env.b.ins().iadd(params[4], out_off);
         for (k, &x) in r.iter().enumerate() {

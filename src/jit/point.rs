@@ -42,6 +42,20 @@ pub(super) trait Width {
     fn unary_helper(env: &mut Env, u: UnOp, a: Value) -> Value;
     /// A binary op computed by its helper.
     fn binary_helper(env: &mut Env, op: BinOp, a: Value, b: Value) -> Value;
+    /// The f64 `x` in every lane.
+    fn splat(env: &mut Env, x: Value) -> Value;
+    /// Per lane, whether `x cc y` holds, as [`Width::pick`] reads it.
+    fn test(env: &mut Env, cc: FloatCC, x: Value, y: Value) -> Value;
+    /// Per lane, `a` where the test `c` ([`Width::test`]) held, else `b`.
+    fn pick(env: &mut Env, c: Value, a: Value, b: Value) -> Value;
+    /// `f` applied to each lane of `args` (scalars in, scalars out), its
+    /// results joined lane by lane: how the point-gradient kind calls its
+    /// scalar helper.
+    fn per_lane(
+        env: &mut Env,
+        args: &[Value],
+        f: impl FnMut(&mut Env, &[Value]) -> Vec<Value>,
+    ) -> Vec<Value>;
 }
 
 /// One f64 per value: the single-point kernel and the scalar batch loop.
@@ -59,6 +73,22 @@ impl Width for Scalar {
     }
     fn binary_helper(env: &mut Env, op: BinOp, a: Value, b: Value) -> Value {
         env.call_pt_binary(op, a, b)
+    }
+    fn splat(_env: &mut Env, x: Value) -> Value {
+        x
+    }
+    fn test(env: &mut Env, cc: FloatCC, x: Value, y: Value) -> Value {
+        env.b.ins().fcmp(cc, x, y)
+    }
+    fn pick(env: &mut Env, c: Value, a: Value, b: Value) -> Value {
+        env.b.ins().select(c, a, b)
+    }
+    fn per_lane(
+        env: &mut Env,
+        args: &[Value],
+        mut f: impl FnMut(&mut Env, &[Value]) -> Vec<Value>,
+    ) -> Vec<Value> {
+        f(env, args)
     }
 }
 

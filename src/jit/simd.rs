@@ -1,7 +1,9 @@
-//! The F64X2 batch point kernel: two points per loop iteration.
+//! The F64X2 batch loop, two points per iteration: the batch point
+//! kernel's, and the point gradient's second tier
+//! ([`super::pgrad`], whose derivative rules run at the same width).
 //!
-//! The body is [`super::point::lower`] (the point kind's rules) at width
-//! [`X2`]: every inline op is the same IEEE operation on an `F64X2` (`fneg
+//! The point kernel's body is [`super::point::lower`] (the point kind's
+//! rules) at width [`X2`]: every inline op is the same IEEE operation on an `F64X2` (`fneg
 //! fabs sqrt fadd fsub fmul fdiv fmin fmax`, whose Cranelift semantics are
 //! per lane those of the scalar forms: `fmin`/`fmax` propagate NaN and
 //! order `-0 < +0`), `a / ±0` is NaN by a lane mask (`fcmp eq` +
@@ -10,8 +12,10 @@
 //! and rebuild the vector. So every lane is bit for bit the scalar
 //! kernel's value (NaN payloads aside: a NaN is a NaN).
 //!
-//! The loop: while at least two points remain, load two `x`, `y`, `z`
-//! (unaligned), evaluate, store two results; an odd last point is splatted
+//! The loop ([`emit_loop`]): while at least two points remain, load two
+//! `x`, `y`, `z` (unaligned), evaluate, store two results (a kind with
+//! several outputs per point, as the point gradient's four, stores them
+//! lane by lane into each point's record); an odd last point is splatted
 //! into both lanes, evaluated by the same body, and lane 0 stored. `t` is
 //! splatted once.
 
@@ -30,9 +34,24 @@ fn vflags() -> MemFlagsData {
     MemFlagsData::new().with_notrap()
 }
 
-/// Emits the batch loop; `params` are the batch entry's
+/// Emits the point kernel's batch loop; `params` are the batch entry's
 /// `(xs, ys, zs, t, out, n)`.
 pub(super) fn emit_point_batch(env: &mut Env, prog: &Program, params: &[Value]) {
+    emit_loop(env, params, |env, input| {
+        vec![lower::<X2>(env, prog, input)]
+    });
+}
+
+/// Emits a batch loop of two points per iteration (see the module doc)
+/// whose `body` maps the inputs `[x, y, z, t]` (two lanes each) to the
+/// outputs of a point, in their order in `out` (two lanes each: `out`
+/// holds, per point, one f64 per output); `params` are the batch entry's
+/// `(xs, ys, zs, t, out, n)`.
+pub(super) fn emit_loop(
+    env: &mut Env,
+    params: &[Value],
+    body: impl FnOnce(&mut Env, [Value; 4]) -> Vec<Value>,
+) {
     let (xs, ys, zs, t, out, n) = (
         params[0], params[1], params[2], params[3], params[4], params[5],
     );
@@ -44,16 +63,16 @@ pub(super) fn emit_point_batch(env: &mut Env, prog: &Program, params: &[Value]) 
     let load2 = env.b.create_block();
     let check1 = env.b.create_block();
     let load1 = env.b.create_block();
-    let body = env.b.create_block();
+    let eval = env.b.create_block();
     let store2 = env.b.create_block();
     let store1 = env.b.create_block();
     let exit = env.b.create_block();
     env.b.append_block_param(header, types::I64);
     for _ in 0..3 {
-        env.b.append_block_param(body, VT);
+        env.b.append_block_param(eval, VT);
     }
-    env.b.append_block_param(body, types::I64); // byte offset 8i
-    env.b.append_block_param(body, types::I8); // 1: two points, 0: one
+    env.b.append_block_param(eval, types::I64); // byte offset 8i
+    env.b.append_block_param(eval, types::I8); // 1: two points, 0: one
 
     let zero = env.b.ins().iconst(types::I64, 0);
     env.b.ins().jump(header, &[zero.into()]);
@@ -76,7 +95,7 @@ pub(super) fn emit_point_batch(env: &mut Env, prog: &Program, params: &[Value]) 
     let v = a.map(|p| env.b.ins().load(VT, vf, p, 0));
     let one = env.b.ins().iconst(types::I8, 1);
     env.b.ins().jump(
-        body,
+        eval,
         &[
             v[0].into(),
             v[1].into(),
@@ -99,7 +118,7 @@ pub(super) fn emit_point_batch(env: &mut Env, prog: &Program, params: &[Value]) 
     });
     let zero8 = env.b.ins().iconst(types::I8, 0);
     env.b.ins().jump(
-        body,
+        eval,
         &[
             v[0].into(),
             v[1].into(),
@@ -109,20 +128,35 @@ pub(super) fn emit_point_batch(env: &mut Env, prog: &Program, params: &[Value]) 
         ],
     );
 
-    env.b.switch_to_block(body);
-    let bp: Vec<Value> = env.b.block_params(body).to_vec();
-    let r = lower::<X2>(env, prog, [bp[0], bp[1], bp[2], tv]);
-    let oa = env.b.ins().iadd(out, bp[3]);
+    env.b.switch_to_block(eval);
+    let bp: Vec<Value> = env.b.block_params(eval).to_vec();
+    let r = body(env, [bp[0], bp[1], bp[2], tv]);
+    // Point i's outputs start at out + 8·len(r)·i.
+    let stride = 8 * r.len() as i64;
+    let out_off = env.b.ins().imul_imm_s(bp[3], r.len() as i64);
+    let oa = env.b.ins().iadd(out, out_off);
     env.b.ins().brif(bp[4], store2, &[], store1, &[]);
 
     env.b.switch_to_block(store2);
-    env.b.ins().store(vf, r, oa, 0);
+    if let [r] = r[..] {
+        env.b.ins().store(vf, r, oa, 0);
+    } else {
+        for (k, &v) in r.iter().enumerate() {
+            for lane in 0..2u8 {
+                let x = env.b.ins().extractlane(v, lane);
+                let at = i64::from(lane) * stride + 8 * k as i64;
+                env.b.ins().store(sf, x, oa, at as i32);
+            }
+        }
+    }
     let next = env.b.ins().iadd_imm_s(i, 2);
     env.b.ins().jump(header, &[next.into()]);
 
     env.b.switch_to_block(store1);
-    let r0 = env.b.ins().extractlane(r, 0);
-    env.b.ins().store(sf, r0, oa, 0);
+    for (k, &v) in r.iter().enumerate() {
+        let x = env.b.ins().extractlane(v, 0);
+        env.b.ins().store(sf, x, oa, 8 * k as i32);
+    }
     env.b.ins().jump(exit, &[]);
 
     env.b.switch_to_block(exit);
@@ -151,6 +185,33 @@ impl Width for X2 {
         let r0 = env.call_pt_binary(op, a0, b0);
         let r1 = env.call_pt_binary(op, a1, b1);
         join(env, r0, r1)
+    }
+    fn splat(env: &mut Env, x: Value) -> Value {
+        env.b.ins().splat(VT, x)
+    }
+    fn test(env: &mut Env, cc: FloatCC, x: Value, y: Value) -> Value {
+        let c = env.b.ins().fcmp(cc, x, y);
+        env.b.ins().bitcast(VT, MemFlagsData::new(), c)
+    }
+    fn pick(env: &mut Env, c: Value, a: Value, b: Value) -> Value {
+        env.b.ins().bitselect(c, a, b)
+    }
+    fn per_lane(
+        env: &mut Env,
+        args: &[Value],
+        mut f: impl FnMut(&mut Env, &[Value]) -> Vec<Value>,
+    ) -> Vec<Value> {
+        let split: Vec<[Value; 2]> = args.iter().map(|&a| lanes(env, a)).collect();
+        let mut out: [Vec<Value>; 2] = Default::default();
+        for (k, o) in out.iter_mut().enumerate() {
+            let lane: Vec<Value> = split.iter().map(|l| l[k]).collect();
+            *o = f(env, &lane);
+        }
+        let [r0, r1] = out;
+        r0.into_iter()
+            .zip(r1)
+            .map(|(a, b)| join(env, a, b))
+            .collect()
     }
 }
 

@@ -3,6 +3,8 @@
 //! `eval::grad::eval_point` on random programs of every op, its value bit
 //! for bit the point kernel's, batch == single, inside the interval-gradient
 //! kernel's enclosure on the degenerate box; and hand-computed gradients.
+//! The batch kernel's second tier (two points per iteration) is held to
+//! the first's bits, and switched to when its count says.
 
 #![allow(clippy::needless_range_loop)]
 
@@ -73,12 +75,36 @@ fn show(prog: &Program) -> String {
 }
 
 fn jit(p: &Program) -> Kernels {
+    jit_with(p, JitOptions::default().point_grad_wide_after)
+}
+
+/// [`jit`] whose point gradient switches to its second tier once `after`
+/// points have gone through batches of two or more.
+fn jit_with(p: &Program, after: usize) -> Kernels {
     let opts = JitOptions {
         fast_compile: true,
         verify: true,
+        point_grad_wide_after: after,
         ..JitOptions::default()
     };
     Kernels::compile_with(p, &opts).expect("JIT compile")
+}
+
+/// The point-gradient entry points compiled so far (one per tier).
+fn pgrad_tiers(k: &Kernels) -> usize {
+    k.info()
+        .iter()
+        .filter(|i| i.kind == Kind::PointGrad)
+        .count()
+}
+
+/// `k`'s batch point gradient at `pts` (time `t`), as records.
+fn batch(k: &Kernels, pts: &[[f64; 4]], t: f64) -> Vec<f64> {
+    let col = |i: usize| pts.iter().map(|q| q[i]).collect::<Vec<_>>();
+    let mut out = vec![0.0; 4 * pts.len()];
+    k.point_grad_batch(&col(0), &col(1), &col(2), t, &mut out)
+        .unwrap();
+    out
 }
 
 proptest! {
@@ -89,7 +115,8 @@ proptest! {
     })]
 
     /// Random programs of every op at special and ordinary points: value
-    /// and gradient bit for bit the reference, batch bit for bit single,
+    /// and gradient bit for bit the reference, batch bit for bit single
+    /// (by either tier: two points per iteration, and an odd last one),
     /// inside the interval-gradient kernel's enclosure.
     #[test]
     fn matches_reference(
@@ -103,17 +130,21 @@ proptest! {
                 prop_assert!(false, "{}\n{}", e, show(&prog));
             }
         }
-        let col = |i: usize| pts.iter().map(|q| q[i]).collect::<Vec<_>>();
-        let mut out = vec![0.0; 4 * pts.len()];
-        k.point_grad_batch(&col(0), &col(1), &col(2), t, &mut out).unwrap();
-        for (i, p) in pts.iter().enumerate() {
-            let (v, d) = k.point_grad([p[0], p[1], p[2], t]);
-            let want = [v, d[0], d[1], d[2]];
-            for j in 0..4 {
-                prop_assert!(bits_eq(out[4 * i + j], want[j]),
-                    "batch record {i}[{j}] {:e} != single {:e}\n{}", out[4 * i + j], want[j], show(&prog));
+        let wide = jit_with(&prog, 0);
+        // A single point, on the first tier: not counted.
+        wide.point_grad(pts[0]);
+        for (tier, out) in [("first", batch(&k, &pts, t)), ("second", batch(&wide, &pts, t))] {
+            for (i, p) in pts.iter().enumerate() {
+                let (v, d) = k.point_grad([p[0], p[1], p[2], t]);
+                let want = [v, d[0], d[1], d[2]];
+                for j in 0..4 {
+                    prop_assert!(bits_eq(out[4 * i + j], want[j]),
+                        "{tier} tier: batch record {i}[{j}] {:e} != single {:e}\n{}",
+                        out[4 * i + j], want[j], show(&prog));
+                }
             }
         }
+        prop_assert_eq!(pgrad_tiers(&wide), if pts.len() >= 2 { 2 } else { 1 });
     }
 }
 
@@ -399,4 +430,50 @@ fn compiled_lazily_and_shareable() {
     // is alive.
     unsafe { f(&1.0, &0.0, &0.0, 0.0, out.as_mut_ptr(), 1) };
     assert_eq!(out, [r[0].0, r[0].1[0], r[0].1[1], r[0].1[2]]);
+}
+
+/// The second tier is compiled by the batch that brings the points of
+/// batches of two or more past the count, and serves the batches after it
+/// with the first tier's bits; single points are not counted, and without
+/// `simd` (or with the count at `usize::MAX`) there is no second tier.
+#[test]
+fn second_tier_after_its_count() {
+    let s = Surface::compile(
+        "domain [-2, 2]^3; surface max(min(x*y, z), abs(x) - sqrt(y*y + 1)) + exp(z)/3;",
+        "t.iso",
+        &CompileOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{}", e.render()));
+    let pts: Vec<[f64; 4]> = (0..8)
+        .map(|i| {
+            let u = i as f64 / 3.0;
+            [u.sin(), (1.7 * u).cos(), u - 1.2, 0.0]
+        })
+        .collect();
+    let k = jit_with(&s.program, 10);
+    let first = batch(&k, &pts, 0.0);
+    for p in &pts {
+        k.point_grad(*p);
+    }
+    assert_eq!(pgrad_tiers(&k), 1, "8 points of batches, and singles");
+    let second = batch(&k, &pts, 0.0);
+    assert_eq!(pgrad_tiers(&k), 2, "16 points");
+    assert!(first.iter().zip(&second).all(|(a, b)| bits_eq(*a, *b)));
+    for never in [
+        JitOptions {
+            simd: false,
+            point_grad_wide_after: 0,
+            ..JitOptions::default()
+        },
+        JitOptions {
+            point_grad_wide_after: usize::MAX,
+            ..JitOptions::default()
+        },
+    ] {
+        let k = Kernels::compile_with(&s.program, &never).unwrap();
+        for _ in 0..3 {
+            assert_eq!(batch(&k, &pts, 0.0), first);
+        }
+        assert_eq!(pgrad_tiers(&k), 1, "{never:?}");
+    }
 }
