@@ -64,7 +64,7 @@ use crate::eval::sample::grads_at;
 use crate::mesh::quality::aspect_ratio;
 use crate::mesh::{Mesh, Star};
 use crate::octree::Chord;
-use crate::roots::walk::newton;
+use crate::roots::walk::newton_batch;
 
 /// Passes of [`settle`]: on sphere.iso at depth 8 the 99.9th percentile of
 /// the chord error is 0.036 cells with none (two shape passes on the split
@@ -155,7 +155,7 @@ pub fn settle<E: Evaluator + ?Sized>(
 }
 
 /// The `targets` (vertex, target, reach, goal) projected onto `f(·, t) =
-/// 0` (a Newton walk each, in parallel), the shape moves among them held
+/// 0` (a Newton walk each, in lock-step batches), the shape moves among them held
 /// within `tau` ([`within_chord`]): (vertex, position, unit normal, goal).
 fn candidates<E: Evaluator + ?Sized>(
     mesh: &Mesh,
@@ -166,10 +166,20 @@ fn candidates<E: Evaluator + ?Sized>(
     targets: &[(u32, DVec3, f64, Goal)],
 ) -> Vec<(usize, DVec3, DVec3, Goal)> {
     let projected: Vec<(usize, DVec3, DVec3, Goal)> = targets
-        .par_iter()
-        .filter_map(|&(v, q, reach, goal)| {
-            let on = newton(f, t, q, reach, reach)?;
-            Some((v as usize, on.pos, on.grad.normalize_or_zero(), goal))
+        .par_chunks(WALKS_PER_TASK)
+        .flat_map_iter(|chunk| {
+            let starts: Vec<(DVec3, f64, f64)> = chunk
+                .iter()
+                .map(|&(_, q, reach, _)| (q, reach, reach))
+                .collect();
+            let walks = newton_batch(f, t, &starts);
+            chunk
+                .iter()
+                .zip(walks)
+                .filter_map(|(&(v, _, _, goal), on)| {
+                    let on = on?;
+                    Some((v as usize, on.pos, on.grad.normalize_or_zero(), goal))
+                })
         })
         .collect();
     let (shapes, sags): (Vec<_>, Vec<_>) = projected
@@ -179,6 +189,10 @@ fn candidates<E: Evaluator + ?Sized>(
     held.extend(sags);
     held
 }
+
+/// Newton walks per task in [`candidates`], in lock-step (batches of the
+/// point gradient).
+const WALKS_PER_TASK: usize = 512;
 
 /// What a move of [`settle`] is for, read before it.
 #[derive(Clone, Copy, Debug)]

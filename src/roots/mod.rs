@@ -39,7 +39,7 @@
 //!   dual cell, or the way to a crease's tip, is the function's.
 //! - [`walk::newton`]: a Newton walk with bounded steps (the twinned
 //!   meshes' projection), ending in [`bisect`] once a step crosses the
-//!   surface.
+//!   surface; `walk::newton_batch` runs many in lock-step.
 
 use glam::DVec3;
 

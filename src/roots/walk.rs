@@ -21,13 +21,17 @@
 //! away). This saves the one or two evaluations that only confirm
 //! convergence. Otherwise the result is on the surface to machine
 //! precision: the last Newton step (or the bracket) is a few ulps of the
-//! coordinates. Every step costs one value-and-gradient evaluation ([`Evaluator::point_grad`]); each depends on the last, so the
-//! walk is sequential (callers run many walks in parallel).
+//! coordinates. Every step costs one value-and-gradient evaluation
+//! ([`Evaluator::point_grad`]); each depends on the last, so a walk is
+//! sequential. [`newton_batch`] runs many walks in lock-step, each round's
+//! evaluations one batch (the batch kernels' speed), with [`newton`]'s
+//! results bit for bit.
 
 use glam::DVec3;
 
-use super::{at, bisect};
+use super::{Segment, at, bisect, bisect_batch};
 use crate::eval::Evaluator;
+use crate::eval::sample::grads_at;
 
 /// `(f, ∇f)` at `(p, t)`.
 fn grad_at<E: Evaluator + ?Sized>(f: &E, t: f64, p: DVec3) -> (f64, DVec3) {
@@ -116,6 +120,207 @@ pub(crate) fn newton<E: Evaluator + ?Sized>(
     None
 }
 
+/// A walk of [`newton_batch`]: [`newton`]'s loop, cut where it evaluates.
+#[derive(Clone, Copy, Debug)]
+struct Walk {
+    p0: DVec3,
+    max_dist: f64,
+    max_step: f64,
+    /// The walk's point, `f` and `∇f` there.
+    p: DVec3,
+    fp: f64,
+    g: DVec3,
+    /// The step being tried from `p`, its rounding floor, and how often it
+    /// was halved.
+    step: DVec3,
+    tiny: f64,
+    halvings: u32,
+    /// Steps begun.
+    steps: u32,
+    next: Next,
+}
+
+/// What a [`Walk`] waits for.
+#[derive(Clone, Copy, Debug)]
+enum Next {
+    /// `(f, ∇f)` at its start.
+    Start,
+    /// `(f, ∇f)` at `p + step`.
+    Probe,
+    /// The zero on this segment, then `∇f` there.
+    Bisect(Segment),
+    /// Nothing: the walk is over, with this result.
+    Done(Option<OnSurface>),
+}
+
+impl Walk {
+    fn new(p0: DVec3, max_dist: f64, max_step: f64) -> Walk {
+        Walk {
+            p0,
+            max_dist,
+            max_step,
+            p: p0,
+            fp: 0.0,
+            g: DVec3::ZERO,
+            step: DVec3::ZERO,
+            tiny: 0.0,
+            halvings: 0,
+            steps: 0,
+            next: Next::Start,
+        }
+    }
+
+    /// The point whose `(f, ∇f)` the walk waits for, if any.
+    fn wants(&self) -> Option<DVec3> {
+        match self.next {
+            Next::Start => Some(self.p0),
+            Next::Probe => Some(self.p + self.step),
+            _ => None,
+        }
+    }
+
+    /// Takes `(f, ∇f)` at [`Walk::wants`]'s point.
+    fn take(&mut self, v: f64, grad: DVec3) {
+        match self.next {
+            Next::Start => {
+                (self.fp, self.g) = (v, grad);
+                self.begin_step();
+            }
+            Next::Probe => self.probed(v, grad),
+            _ => unreachable!("a walk takes a value only when it wants one"),
+        }
+    }
+
+    /// The head of [`newton`]'s outer loop, at `(p, fp, g)`.
+    fn begin_step(&mut self) {
+        let (fp, g) = (self.fp, self.g);
+        self.next = if self.steps == 64 || !fp.is_finite() || !g.is_finite() {
+            Next::Done(None)
+        } else if fp == 0.0 {
+            Next::Done(Some(OnSurface {
+                pos: self.p,
+                grad: g,
+            }))
+        } else if g.length_squared() == 0.0 {
+            Next::Done(None)
+        } else {
+            self.steps += 1;
+            let mut step = g * (-fp / g.length_squared());
+            let len = step.length();
+            if len <= CONVERGED * self.max_step {
+                Next::Done(Some(OnSurface {
+                    pos: self.p + step,
+                    grad: g,
+                }))
+            } else {
+                if len > self.max_step {
+                    step *= self.max_step / len;
+                }
+                (self.step, self.tiny, self.halvings) = (step, tiny(self.p), 0);
+                self.probe()
+            }
+        };
+    }
+
+    /// Probes `p + step`, unless it leaves the ball.
+    fn probe(&self) -> Next {
+        if (self.p + self.step).distance(self.p0) > self.max_dist {
+            Next::Done(None)
+        } else {
+            Next::Probe
+        }
+    }
+
+    /// The body of [`newton`]'s inner loop, given `(f, ∇f)` at `q = p +
+    /// step`.
+    fn probed(&mut self, fq: f64, gq: DVec3) {
+        let q = self.p + self.step;
+        let on = |pos| Next::Done(Some(OnSurface { pos, grad: gq }));
+        self.next = if fq.is_nan() {
+            Next::Done(None)
+        } else if fq == 0.0 {
+            on(q)
+        } else if (fq < 0.0) != (self.fp < 0.0) {
+            Next::Bisect(Segment {
+                a: self.p,
+                b: q,
+                fa: self.fp,
+                fb: fq,
+            })
+        } else if self.step.length() <= self.tiny {
+            on(q)
+        } else if fq.abs() < self.fp.abs() {
+            (self.p, self.fp, self.g) = (q, fq, gq);
+            return self.begin_step();
+        } else if self.halvings == 30 {
+            Next::Done(None)
+        } else {
+            self.halvings += 1;
+            self.step *= 0.5;
+            self.probe()
+        };
+    }
+}
+
+/// [`newton`] from every `(p0, max_dist, max_step)` of `starts`, with the
+/// same results bit for bit: the walks advance in lock-step, each round's
+/// evaluations one [`Evaluator::point_grad_batch`] call, and the brackets
+/// of the walks that cross the surface go to [`bisect_batch`] (then one
+/// batch for the gradients at their zeros). Each walk evaluates the
+/// points [`newton`] would, in the same order.
+pub(crate) fn newton_batch<E: Evaluator + ?Sized>(
+    f: &E,
+    t: f64,
+    starts: &[(DVec3, f64, f64)],
+) -> Vec<Option<OnSurface>> {
+    let mut walks: Vec<Walk> = starts
+        .iter()
+        .map(|&(p0, max_dist, max_step)| Walk::new(p0, max_dist, max_step))
+        .collect();
+    let mut pts = Vec::new();
+    let mut out = Vec::new();
+    loop {
+        let waiting: Vec<usize> = (0..walks.len())
+            .filter(|&i| walks[i].wants().is_some())
+            .collect();
+        if waiting.is_empty() {
+            break;
+        }
+        pts.clear();
+        pts.extend(
+            waiting
+                .iter()
+                .map(|&i| walks[i].wants().expect("waiting").to_array()),
+        );
+        out.resize(pts.len(), (0.0, [0.0; 3]));
+        f.point_grad_batch(&pts, t, &mut out);
+        for (&i, &(v, g)) in waiting.iter().zip(&out) {
+            walks[i].take(v, DVec3::from_array(g));
+        }
+    }
+    let crossing: Vec<(usize, Segment)> = walks
+        .iter()
+        .enumerate()
+        .filter_map(|(i, w)| match w.next {
+            Next::Bisect(s) => Some((i, s)),
+            _ => None,
+        })
+        .collect();
+    let segments: Vec<Segment> = crossing.iter().map(|&(_, s)| s).collect();
+    let zeros = bisect_batch(f, t, &segments);
+    let grads = grads_at(f, t, &zeros);
+    for ((&(i, _), &pos), (_, grad)) in crossing.iter().zip(&zeros).zip(grads) {
+        walks[i].next = Next::Done(Some(OnSurface { pos, grad }));
+    }
+    walks
+        .into_iter()
+        .map(|w| match w.next {
+            Next::Done(r) => r,
+            _ => unreachable!("every walk ends"),
+        })
+        .collect()
+}
+
 /// A few ulps of `p`'s largest coordinate: steps below this are noise.
 fn tiny(p: DVec3) -> f64 {
     4.0 * f64::EPSILON * p.abs().max_element().max(f64::MIN_POSITIVE)
@@ -166,6 +371,55 @@ mod tests {
         }
         // Too far: refused.
         assert!(newton(&f, 0.0, DVec3::new(1.5, 0.0, 4.0), 1.0, 0.5).is_none());
+    }
+
+    /// The lock-step walks end where the sequential ones do, bit for bit,
+    /// over starts that converge, cross the surface (bisection), leave
+    /// their ball, meet a zero gradient (a sphere's centre), or sit on
+    /// the surface already.
+    #[test]
+    fn batch_walks_are_the_sequential_ones() {
+        let f = Spheres;
+        let mut starts = vec![
+            (DVec3::new(1.5, 0.0, 0.0), 2.0, 0.5),
+            (DVec3::new(2.5, 0.0, 0.0), 2.0, 0.5),
+            (DVec3::new(1.5, 0.0, 4.0), 1.0, 0.5),
+        ];
+        for i in 0..400 {
+            let u = f64::from(i);
+            let p = DVec3::new(
+                3.0 * (0.37 * u).sin(),
+                2.0 * (0.11 * u).cos(),
+                (0.23 * u).sin(),
+            );
+            let reach = [0.05, 0.3, 1.0, 4.0][i as usize % 4];
+            let step = [0.01, 0.1, 0.5, 2.0][(i as usize / 4) % 4];
+            starts.push((p, reach, step));
+        }
+        let batch = newton_batch(&f, 0.0, &starts);
+        let (mut some, mut none) = (0, 0);
+        for (&(p, reach, step), got) in starts.iter().zip(&batch) {
+            let want = newton(&f, 0.0, p, reach, step);
+            match (want, got) {
+                (None, None) => none += 1,
+                (Some(a), Some(b)) => {
+                    some += 1;
+                    assert_eq!(
+                        a.pos.to_array().map(f64::to_bits),
+                        b.pos.to_array().map(f64::to_bits),
+                        "{p}"
+                    );
+                    assert_eq!(
+                        a.grad.to_array().map(f64::to_bits),
+                        b.grad.to_array().map(f64::to_bits),
+                        "{p}"
+                    );
+                }
+                _ => panic!("{p} {reach} {step}: {want:?} against {got:?}"),
+            }
+        }
+        assert!(some > 100 && none > 10, "{some} landed, {none} refused");
+        assert!(batch[0].is_none() && batch[1].is_some() && batch[2].is_none());
     }
 
     #[test]
