@@ -3,6 +3,7 @@
 //! reviews (chord error, the topology on ∂Ω, pieces of a cell).
 
 use glam::DVec3;
+use rustc_hash::FxHashMap as HashMap;
 
 use super::{Chord, Node, Octant, OctreeOptions, criteria};
 use crate::eval::{Evaluator, WHOLE, WHOLE_GRAD};
@@ -52,7 +53,8 @@ pub(super) fn review<E: Evaluator + ?Sized>(
 /// Whether each of `cells[i]` for `i` in `which` has an estimated chord
 /// error ([`criteria::chord_error`]) within `tau` at the turn of the
 /// normals across it ([`Chord::at`]): one point-gradient batch at the
-/// corners of those cells.
+/// corners of those cells, each distinct corner once (siblings share
+/// most of theirs: eight children of a cell have 27 corners, not 64).
 pub(super) fn chord_within<E: Evaluator + ?Sized>(
     f: &E,
     cells: &[[Interval; 4]],
@@ -66,19 +68,37 @@ pub(super) fn chord_within<E: Evaluator + ?Sized>(
         .iter()
         .flat_map(|&i| Octant::ALL.map(|o| o.pick(lo(i), hi(i)).to_array()))
         .collect();
-    let mut at = vec![(0.0, [0.0; 3]); corners.len()];
-    f.point_grad_batch(&corners, t, &mut at);
+    let (distinct, slot) = distinct_points(&corners);
+    let mut at = vec![(0.0, [0.0; 3]); distinct.len()];
+    f.point_grad_batch(&distinct, t, &mut at);
     which
         .iter()
-        .zip(at.chunks_exact(8))
-        .map(|(&i, at)| {
-            let grads: [[f64; 3]; 8] = std::array::from_fn(|c| at[c].1);
+        .zip(slot.chunks_exact(8))
+        .map(|(&i, slot)| {
+            let grads: [[f64; 3]; 8] = std::array::from_fn(|c| at[slot[c] as usize].1);
             // On a box, the side of a cube of its volume, as the
             // tolerance's cell ([`OctreeOptions::chord_tolerance`]).
             let side = (hi(i) - lo(i)).element_product().cbrt();
             criteria::chord_within(side, &grads, tau)
         })
         .collect()
+}
+
+/// The distinct points of `pts` (by their bits, in order of first
+/// appearance) and, per point of `pts`, its index among them.
+fn distinct_points(pts: &[[f64; 3]]) -> (Vec<[f64; 3]>, Vec<u32>) {
+    let mut index: HashMap<[u64; 3], u32> = HashMap::default();
+    let mut distinct = Vec::new();
+    let slot = pts
+        .iter()
+        .map(|p| {
+            *index.entry(p.map(f64::to_bits)).or_insert_with(|| {
+                distinct.push(*p);
+                (distinct.len() - 1) as u32
+            })
+        })
+        .collect();
+    (distinct, slot)
 }
 
 /// The sides of Ω a node's cell lies on, per axis: on the low face, on
@@ -405,5 +425,61 @@ mod tests {
             }
             assert!(by_pieces >= 20, "{test:?}: only {by_pieces} cells gained");
         }
+    }
+
+    /// `chord_within` reads each distinct corner once and gives every cell
+    /// the verdict its own eight corners give: siblings sharing corners,
+    /// against each cell judged alone.
+    #[test]
+    fn shared_corners_are_read_once_with_the_same_verdicts() {
+        let s = crate::Surface::compile(
+            "domain [-1, 1]^3; surface x*x + 2*y*y + 3*z*z - 0.5;",
+            "t.iso",
+            &Default::default(),
+        )
+        .unwrap_or_else(|e| panic!("{}", e.render()));
+        let f = s.kernels();
+        let tau = Chord {
+            base: 0.01,
+            cell: 0.05,
+        };
+        // The eight children of each of a 4×4×4 grid of cells.
+        let mut cells = Vec::new();
+        for i in 0..64 {
+            let lo =
+                DVec3::new(f64::from(i % 4), f64::from(i / 4 % 4), f64::from(i / 16)) * 0.5 - 1.0;
+            for o in Octant::ALL {
+                let c = o.pick(lo, lo + 0.25);
+                cells.push(cell_input(c, c + 0.25, 0.0));
+            }
+        }
+        let all: Vec<usize> = (0..cells.len()).collect();
+        let together = chord_within(f, &cells, &all, &tau, 0.0);
+        let alone: Vec<bool> = all
+            .iter()
+            .map(|&i| chord_within(f, &cells, &[i], &tau, 0.0)[0])
+            .collect();
+        assert_eq!(together, alone);
+        assert!(together.contains(&true) && together.contains(&false));
+        let corners: Vec<[f64; 3]> = cells
+            .iter()
+            .flat_map(|c| {
+                Octant::ALL.map(|o| {
+                    o.pick(
+                        DVec3::new(c[0].lo, c[1].lo, c[2].lo),
+                        DVec3::new(c[0].hi, c[1].hi, c[2].hi),
+                    )
+                    .to_array()
+                })
+            })
+            .collect();
+        let (distinct, slot) = distinct_points(&corners);
+        assert_eq!(distinct.len(), 9 * 9 * 9);
+        assert!(
+            corners
+                .iter()
+                .zip(&slot)
+                .all(|(p, &k)| distinct[k as usize] == *p)
+        );
     }
 }
