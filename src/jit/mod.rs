@@ -87,8 +87,9 @@
 //! aside). The single-point kernel stays scalar. The point gradient's
 //! batch kernel has a two-point form too, its second tier, compiled once
 //! enough points have gone through the first
-//! ([`JitOptions::point_grad_wide_after`]; [`Kernels`]' module doc). Measurements and what was
-//! tried and dropped: `docs/jit.md` ("SIMD").
+//! ([`JitOptions::point_grad_wide_after`]; [`Kernels`]' module doc).
+//! Measurements and what was tried and dropped: `docs/jit.md` ("SIMD",
+//! "The point gradient's two tiers").
 //!
 //! # Constants
 //!

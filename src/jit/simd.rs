@@ -3,13 +3,13 @@
 //! ([`super::pgrad`], whose derivative rules run at the same width).
 //!
 //! The point kernel's body is [`super::point::lower`] (the point kind's
-//! rules) at width [`X2`]: every inline op is the same IEEE operation on an `F64X2` (`fneg
-//! fabs sqrt fadd fsub fmul fdiv fmin fmax`, whose Cranelift semantics are
-//! per lane those of the scalar forms: `fmin`/`fmax` propagate NaN and
-//! order `-0 < +0`), `a / ±0` is NaN by a lane mask (`fcmp eq` +
-//! `bitselect`), `powi` is the same multiplication chain per lane, and the
-//! ops that call a helper extract both lanes, call the scalar helper twice
-//! and rebuild the vector. So every lane is bit for bit the scalar
+//! rules) at width [`X2`]: every inline op is the same IEEE operation on
+//! an `F64X2` (`fneg fabs sqrt fadd fsub fmul fdiv fmin fmax`, whose
+//! Cranelift semantics are per lane those of the scalar forms:
+//! `fmin`/`fmax` propagate NaN and order `-0 < +0`), `a / ±0` is NaN by
+//! a lane mask (`fcmp eq` + `bitselect`), `powi` is the same
+//! multiplication chain per lane, and the ops that call a helper extract
+//! both lanes, call the scalar helper twice and rebuild the vector. So every lane is bit for bit the scalar
 //! kernel's value (NaN payloads aside: a NaN is a NaN).
 //!
 //! The loop ([`emit_loop`]): while at least two points remain, load two

@@ -50,7 +50,8 @@ pub(crate) struct OnSurface {
     pub grad: DVec3,
 }
 
-/// `p0` moved onto `f(·, t) = 0`; see the module doc.
+/// `p0` moved onto `f(·, t) = 0`; see the module doc. One [`Walk`], its
+/// evaluations one at a time.
 pub(crate) fn newton<E: Evaluator + ?Sized>(
     f: &E,
     t: f64,
@@ -58,69 +59,26 @@ pub(crate) fn newton<E: Evaluator + ?Sized>(
     max_dist: f64,
     max_step: f64,
 ) -> Option<OnSurface> {
-    let mut p = p0;
-    let (mut fp, mut g) = grad_at(f, t, p);
-    for _ in 0..64 {
-        if !fp.is_finite() || !g.is_finite() {
-            return None;
-        }
-        if fp == 0.0 {
-            return Some(OnSurface { pos: p, grad: g });
-        }
-        let g2 = g.length_squared();
-        if g2 == 0.0 {
-            return None;
-        }
-        let mut step = g * (-fp / g2);
-        let len = step.length();
-        if len <= CONVERGED * max_step {
-            return Some(OnSurface {
-                pos: p + step,
-                grad: g,
-            });
-        }
-        if len > max_step {
-            step *= max_step / len;
-        }
-        let tiny = tiny(p);
-        let mut halvings = 0;
-        loop {
-            let q = p + step;
-            if q.distance(p0) > max_dist {
-                return None;
+    let mut walk = Walk::new(p0, max_dist, max_step);
+    loop {
+        match walk.next {
+            Next::Done(r) => return r,
+            Next::Bisect(s) => {
+                let pos = bisect(f, t, s.a, s.b, s.fa, s.fb);
+                let grad = grad_at(f, t, pos).1;
+                return Some(OnSurface { pos, grad });
             }
-            let (fq, gq) = grad_at(f, t, q);
-            if fq.is_nan() {
-                return None;
+            Next::Start | Next::Probe => {
+                let q = walk.wants().expect("a start or a probe wants a point");
+                let (v, g) = grad_at(f, t, q);
+                walk.take(v, g);
             }
-            if fq == 0.0 {
-                return Some(OnSurface { pos: q, grad: gq });
-            }
-            if (fq < 0.0) != (fp < 0.0) {
-                let r = bisect(f, t, p, q, fp, fq);
-                return Some(OnSurface {
-                    pos: r,
-                    grad: grad_at(f, t, r).1,
-                });
-            }
-            if step.length() <= tiny {
-                return Some(OnSurface { pos: q, grad: gq });
-            }
-            if fq.abs() < fp.abs() {
-                (p, fp, g) = (q, fq, gq);
-                break;
-            }
-            halvings += 1;
-            if halvings > 30 {
-                return None;
-            }
-            step *= 0.5;
         }
     }
-    None
 }
 
-/// A walk of [`newton_batch`]: [`newton`]'s loop, cut where it evaluates.
+/// A Newton walk (the module doc), cut where it evaluates: [`newton`]
+/// drives one, [`newton_batch`] many in lock-step.
 #[derive(Clone, Copy, Debug)]
 struct Walk {
     p0: DVec3,
