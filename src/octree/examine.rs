@@ -62,12 +62,7 @@ pub(super) fn chord_within<E: Evaluator + ?Sized>(
     tau: &Chord,
     t: f64,
 ) -> Vec<bool> {
-    let lo = |i: usize| DVec3::new(cells[i][0].lo, cells[i][1].lo, cells[i][2].lo);
-    let hi = |i: usize| DVec3::new(cells[i][0].hi, cells[i][1].hi, cells[i][2].hi);
-    let corners: Vec<[f64; 3]> = which
-        .iter()
-        .flat_map(|&i| Octant::ALL.map(|o| o.pick(lo(i), hi(i)).to_array()))
-        .collect();
+    let corners: Vec<[f64; 3]> = which.iter().flat_map(|&i| corners(&cells[i])).collect();
     let (distinct, slot) = distinct_points(&corners);
     let mut at = vec![(0.0, [0.0; 3]); distinct.len()];
     f.point_grad_batch(&distinct, t, &mut at);
@@ -78,10 +73,24 @@ pub(super) fn chord_within<E: Evaluator + ?Sized>(
             let grads: [[f64; 3]; 8] = std::array::from_fn(|c| at[slot[c] as usize].1);
             // On a box, the side of a cube of its volume, as the
             // tolerance's cell ([`OctreeOptions::chord_tolerance`]).
-            let side = (hi(i) - lo(i)).element_product().cbrt();
+            let (lo, hi) = bounds(&cells[i]);
+            let side = (hi - lo).element_product().cbrt();
             criteria::chord_within(side, &grads, tau)
         })
         .collect()
+}
+
+/// The spatial bounds of a cell's box.
+fn bounds(cell: &[Interval; 4]) -> (DVec3, DVec3) {
+    let lo = DVec3::new(cell[0].lo, cell[1].lo, cell[2].lo);
+    let hi = DVec3::new(cell[0].hi, cell[1].hi, cell[2].hi);
+    (lo, hi)
+}
+
+/// The corners of a cell's box, in [`Octant::ALL`]'s order.
+fn corners(cell: &[Interval; 4]) -> [[f64; 3]; 8] {
+    let (lo, hi) = bounds(cell);
+    Octant::ALL.map(|o| o.pick(lo, hi).to_array())
 }
 
 /// The distinct points of `pts` (by their bits, in order of first
@@ -432,12 +441,7 @@ mod tests {
     /// against each cell judged alone.
     #[test]
     fn shared_corners_are_read_once_with_the_same_verdicts() {
-        let s = crate::Surface::compile(
-            "domain [-1, 1]^3; surface x*x + 2*y*y + 3*z*z - 0.5;",
-            "t.iso",
-            &Default::default(),
-        )
-        .unwrap_or_else(|e| panic!("{}", e.render()));
+        let s = surface("domain [-1, 1]^3; surface x*x + 2*y*y + 3*z*z - 0.5;");
         let f = s.kernels();
         let tau = Chord {
             base: 0.01,
@@ -461,18 +465,7 @@ mod tests {
             .collect();
         assert_eq!(together, alone);
         assert!(together.contains(&true) && together.contains(&false));
-        let corners: Vec<[f64; 3]> = cells
-            .iter()
-            .flat_map(|c| {
-                Octant::ALL.map(|o| {
-                    o.pick(
-                        DVec3::new(c[0].lo, c[1].lo, c[2].lo),
-                        DVec3::new(c[0].hi, c[1].hi, c[2].hi),
-                    )
-                    .to_array()
-                })
-            })
-            .collect();
+        let corners: Vec<[f64; 3]> = cells.iter().flat_map(corners).collect();
         let (distinct, slot) = distinct_points(&corners);
         assert_eq!(distinct.len(), 9 * 9 * 9);
         assert!(

@@ -84,10 +84,9 @@ struct Walk {
     p0: DVec3,
     max_dist: f64,
     max_step: f64,
-    /// The walk's point, `f` and `∇f` there.
+    /// The walk's point and `f` there.
     p: DVec3,
     fp: f64,
-    g: DVec3,
     /// The step being tried from `p`, its rounding floor, and how often it
     /// was halved.
     step: DVec3,
@@ -119,7 +118,6 @@ impl Walk {
             max_step,
             p: p0,
             fp: 0.0,
-            g: DVec3::ZERO,
             step: DVec3::ZERO,
             tiny: 0.0,
             halvings: 0,
@@ -141,17 +139,18 @@ impl Walk {
     fn take(&mut self, v: f64, grad: DVec3) {
         match self.next {
             Next::Start => {
-                (self.fp, self.g) = (v, grad);
-                self.begin_step();
+                self.fp = v;
+                self.begin_step(grad);
             }
             Next::Probe => self.probed(v, grad),
             _ => unreachable!("a walk takes a value only when it wants one"),
         }
     }
 
-    /// The head of [`newton`]'s outer loop, at `(p, fp, g)`.
-    fn begin_step(&mut self) {
-        let (fp, g) = (self.fp, self.g);
+    /// A step from `p`, where `f` is `fp` and `∇f` is `g`: the walk ends
+    /// (converged, or given up), or probes Newton's point.
+    fn begin_step(&mut self, g: DVec3) {
+        let fp = self.fp;
         self.next = if self.steps == 64 || !fp.is_finite() || !g.is_finite() {
             Next::Done(None)
         } else if fp == 0.0 {
@@ -189,8 +188,9 @@ impl Walk {
         }
     }
 
-    /// The body of [`newton`]'s inner loop, given `(f, ∇f)` at `q = p +
-    /// step`.
+    /// The step's probe `q = p + step` read, `(fq, gq)` there: the walk
+    /// ends, bisects the bracket `[p, q]`, moves to `q` for the next step
+    /// (`|f|` fell), or halves the step.
     fn probed(&mut self, fq: f64, gq: DVec3) {
         let q = self.p + self.step;
         let on = |pos| Next::Done(Some(OnSurface { pos, grad: gq }));
@@ -208,8 +208,8 @@ impl Walk {
         } else if self.step.length() <= self.tiny {
             on(q)
         } else if fq.abs() < self.fp.abs() {
-            (self.p, self.fp, self.g) = (q, fq, gq);
-            return self.begin_step();
+            (self.p, self.fp) = (q, fq);
+            return self.begin_step(gq);
         } else if self.halvings == 30 {
             Next::Done(None)
         } else {
@@ -238,21 +238,19 @@ pub(crate) fn newton_batch<E: Evaluator + ?Sized>(
     let mut pts = Vec::new();
     let mut out = Vec::new();
     loop {
-        let waiting: Vec<usize> = (0..walks.len())
-            .filter(|&i| walks[i].wants().is_some())
+        let waiting: Vec<(usize, DVec3)> = walks
+            .iter()
+            .enumerate()
+            .filter_map(|(i, w)| w.wants().map(|q| (i, q)))
             .collect();
         if waiting.is_empty() {
             break;
         }
         pts.clear();
-        pts.extend(
-            waiting
-                .iter()
-                .map(|&i| walks[i].wants().expect("waiting").to_array()),
-        );
+        pts.extend(waiting.iter().map(|&(_, q)| q.to_array()));
         out.resize(pts.len(), (0.0, [0.0; 3]));
         f.point_grad_batch(&pts, t, &mut out);
-        for (&i, &(v, g)) in waiting.iter().zip(&out) {
+        for (&(i, _), &(v, g)) in waiting.iter().zip(&out) {
             walks[i].take(v, DVec3::from_array(g));
         }
     }

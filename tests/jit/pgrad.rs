@@ -12,7 +12,6 @@ use isoc::eval::grad;
 use isoc::interval::Interval;
 use isoc::ir::{BinOp, Builder, Const, Op, Program, UnOp, Value, Var};
 use isoc::jit::{JitError, JitOptions, Kernels, Kind};
-use isoc::{CompileOptions, Surface};
 use proptest::prelude::*;
 
 /// Bitwise equal, any NaN equal to any NaN.
@@ -360,12 +359,9 @@ fn t_has_no_gradient_component() {
 
 #[test]
 fn batch_equals_single_and_checks_lengths() {
-    let s = Surface::compile(
+    let s = crate::support::surface(
         "domain [-2, 2]^3; surface sin(x)*exp(y) + abs(z) - min(x, y)^3 + atan(x*y*z) + t;",
-        "t.iso",
-        &CompileOptions::default(),
-    )
-    .unwrap_or_else(|e| panic!("{}", e.render()));
+    );
     let pts: Vec<[f64; 3]> = (0..100)
         .map(|i| {
             let u = i as f64 / 7.0;
@@ -438,12 +434,9 @@ fn compiled_lazily_and_shareable() {
 /// `simd` (or with the count at `usize::MAX`) there is no second tier.
 #[test]
 fn second_tier_after_its_count() {
-    let s = Surface::compile(
+    let s = crate::support::surface(
         "domain [-2, 2]^3; surface max(min(x*y, z), abs(x) - sqrt(y*y + 1)) + exp(z)/3;",
-        "t.iso",
-        &CompileOptions::default(),
-    )
-    .unwrap_or_else(|e| panic!("{}", e.render()));
+    );
     let pts: Vec<[f64; 4]> = (0..8)
         .map(|i| {
             let u = i as f64 / 3.0;
