@@ -23,8 +23,9 @@
 //! # Limits
 //!
 //! The interpreter evaluates one point at a time; it pays where pruning
-//! made the programs much shorter than the full one, which is when the
-//! octree stores them (see the octree's "Pruning").
+//! made the programs much shorter than the full one and the given
+//! evaluator's point kernels are not compiled, which is when the octree
+//! keeps them (see the octree's "Pruning").
 
 use glam::DVec3;
 

@@ -88,14 +88,17 @@
 //! enclosures that may differ in the last bits, so verdicts may differ from
 //! an unpruned run's where a bound grazes 0; both are sound.) A node whose
 //! prune removed nothing skips the next level's attempt. After the build,
-//! the points in a leaf ([`Field`]) are evaluated with its program when
-//! that is short; the long ones are kept for them too, unless together
-//! they are worth `LONG_PAYS` full programs or more: then compiling the
-//! given evaluator's point kernels once costs less than interpreting them
-//! at every point (random CSG scenes, whose leaves keep most of the
-//! program: `docs/faithful.md`, session 53). Both evaluate a point to the
-//! same bits but where the full program overflows inside a dropped
-//! branch (see [`Field`]), so elsewhere the choice changes no mesh.
+//! the points in a leaf ([`Field`]) are evaluated with its program while
+//! the budget lasted to the end: a model whose programs shrink fast then
+//! never compiles the given evaluator's point kernels either. Once a
+//! level's long programs went to the given evaluator, its kernels serve
+//! every point: a point gradient costs the interpreter about ten times
+//! what it costs the JIT's two-point kernel per instruction, so even a
+//! short program (an eighth of the full one) is no cheaper interpreted,
+//! with the leaf's descent on top (`docs/faithful.md`, session 58). Both
+//! evaluate a point to the same bits but where the full program overflows
+//! inside a dropped branch (see [`Field`]), so elsewhere the choice
+//! changes no mesh.
 //!
 //! Before the proof search on an ambiguous leaf, a sign change among the
 //! point values at its centre, at one Newton step from the centre and at

@@ -28,50 +28,6 @@ pub(super) const INTERPRET_BUDGET: u64 = 512;
 /// program.
 pub(super) const STORE_LIMIT: u64 = 1 << 23;
 
-/// Past this many full programs' worth of instructions in the leaves'
-/// long pruned programs (more than `1/INTERPRET_RATIO` of the full one),
-/// the points evaluated after the build ([`super::Field`]) go to the given
-/// evaluator in those leaves: compiling its point kernels once then costs
-/// less than interpreting the pruned programs at every point (random CSG
-/// scenes, whose leaves keep most of the program). Below it (colonnade.vm,
-/// whose few long leaves sit among a thousand times as many short ones),
-/// the compilation would cost more than it saves. Measured in
-/// `docs/faithful.md`, session 53.
-pub(super) const LONG_PAYS: usize = 500;
-
-/// Keeps, of the leaves' pruned programs `tapes`, those that the points
-/// are evaluated with after the build (see [`Octree::tapes`]): every one,
-/// unless the long ones (more than `1/INTERPRET_RATIO` of the full
-/// program's `full_len` instructions) hold [`LONG_PAYS`] full programs'
-/// worth of instructions or more; then the short ones only, and none at
-/// all (an empty vector, which [`super::Field`] passes by without looking
-/// for a point's leaf) when no leaf has a short one.
-///
-/// A brick's tree decides on its own leaves. So where the full program
-/// overflows inside a branch its pruned one dropped (the one case in which
-/// their point values differ, see [`prune`]), a brick's point there may
-/// differ from the whole run's.
-///
-/// [`Octree::tapes`]: super::Octree::tapes
-pub(super) fn keep_for_points(tapes: &mut Vec<Option<Arc<Reference>>>, full_len: usize) {
-    let long = |t: &Option<Arc<Reference>>| {
-        t.as_ref()
-            .map(|r| r.0.insts.len())
-            .filter(|&len| !short(len, full_len))
-    };
-    let worth: usize = tapes.iter().filter_map(long).sum();
-    if worth >= LONG_PAYS * full_len {
-        for t in tapes.iter_mut() {
-            if long(t).is_some() {
-                *t = None;
-            }
-        }
-        if tapes.iter().all(Option::is_none) {
-            tapes.clear();
-        }
-    }
-}
-
 /// Whether a pruned program of `len` instructions is short enough for the
 /// interpreters, against the full program's `full_len`
 /// ([`INTERPRET_RATIO`]).
@@ -218,41 +174,51 @@ mod tests {
     use super::*;
     use crate::testing::surface;
 
-    /// The points keep every pruned program until the long ones are worth
-    /// [`LONG_PAYS`] full programs, and then the short ones only, or none
-    /// (an empty vector) when there are none.
+    /// The points after the build keep the leaves' pruned programs only
+    /// while the interpretation budget lasts. Where a `min`'s choice is
+    /// never certain (two branches that differ by `1e-12`), every cell
+    /// keeps the full program, too long to interpret: the budget closes
+    /// on the first levels of hundreds of cells, the kernels of the given
+    /// evaluator serve the rest of the build, and no tape is kept. Where
+    /// the programs shrink fast (a sphere among far balls, which never
+    /// win), the budget lasts and every surface leaf keeps its short
+    /// program.
     #[test]
-    fn long_programs_go_once_compiling_pays() {
-        let program = |src: &str| Some(Arc::new(Reference(surface(src).program)));
-        let full = surface(
-            "domain [-1, 1]^3; surface min(min(sqrt(x^2 + y^2 + z^2) - 0.5, \
-             sqrt((x - 1)^2 + y^2 + z^2) - 0.5), min(sqrt(x^2 + (y - 1)^2 + z^2) - 0.5, \
-             sqrt(x^2 + y^2 + (z - 1)^2) - 0.5));",
-        )
-        .program
-        .insts
-        .len();
-        let long = program("domain [-1, 1]^3; surface sqrt(x^2 + y^2 + z^2) - 0.5;");
-        let short = program("domain [-1, 1]^3; surface x;");
-        let len = |t: &Option<Arc<Reference>>| t.as_ref().map_or(0, |r| r.0.insts.len());
-        assert!(len(&long) * INTERPRET_RATIO > full && len(&short) * INTERPRET_RATIO <= full);
-        // Just below the threshold, and at it.
-        let below = (LONG_PAYS * full).div_ceil(len(&long)) - 1;
-        for (n, kept) in [(below, true), (below + 1, false)] {
-            let mut tapes: Vec<_> = (0..n)
-                .flat_map(|_| [long.clone(), short.clone(), None])
-                .collect();
-            keep_for_points(&mut tapes, full);
-            let lens: Vec<usize> = tapes.iter().map(len).collect();
-            let expect: Vec<usize> = (0..n)
-                .flat_map(|_| [if kept { len(&long) } else { 0 }, len(&short), 0])
-                .collect();
-            assert_eq!(lens, expect, "{n} long programs");
+    fn tapes_are_kept_for_points_while_the_budget_lasts() {
+        let opts = crate::OctreeOptions {
+            max_level: 6,
+            ..Default::default()
+        };
+        let build = |src: &str| {
+            let s = surface(src);
+            let tree = crate::octree::Octree::build(&s, s.domain, &opts, &|_, _| {});
+            (tree, s.program.insts.len())
+        };
+        let (tied, _) = build(
+            "domain [-1, 1]^3; surface min(x^2 + y^2 + z^2 - 0.5, \
+             x^2 + y^2 + z^2 - 0.5 + 1e-12);",
+        );
+        assert!(tied.tapes.is_empty(), "{} tapes", tied.tapes.len());
+        let (shrunk, full) = build(
+            "domain [-1, 1]^3; \
+             fn ball(x, y, z, c) = sqrt((x - c)^2 + y^2 + z^2) - 1; \
+             fn four(x, y, z, c) = min(min(ball(x, y, z, c), ball(x, y, z, c + 2)), \
+                 min(ball(x, y, z, c + 4), ball(x, y, z, c + 6))); \
+             surface min(x^2 + y^2 + z^2 - 0.5, min(min(four(x, y, z, 5), four(x, y, z, 13)), \
+                 min(four(x, y, z, 21), four(x, y, z, 29))));",
+        );
+        let leaves = shrunk
+            .nodes
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| n.kind == crate::octree::Kind::Leaf(crate::octree::Leaf::Surface));
+        let mut kept = 0;
+        for (i, _) in leaves {
+            let tape = shrunk.tapes.get(i).and_then(|t| t.as_ref());
+            let len = tape.map_or(full, |t| t.0.insts.len());
+            assert!(short(len, full), "leaf {i}: {len} of {full} instructions");
+            kept += 1;
         }
-        // With no short program left, none at all.
-        let mut tapes = vec![long.clone(); below + 1];
-        tapes.push(None);
-        keep_for_points(&mut tapes, full);
-        assert!(tapes.is_empty());
+        assert!(kept > 100, "{kept} surface leaves");
     }
 }
