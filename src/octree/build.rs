@@ -11,7 +11,7 @@ use super::examine::{boundary_look, cell_input, examine, review, sides};
 use super::node::{Kind, Leaf, MAX_LEVEL, Node, Region};
 use super::octant::Octant;
 use super::options::{OCTREE_SLACK, OctreeOptions};
-use super::tape::{Budget, Tape};
+use super::tape::{self, Budget, Tape};
 use super::tree::{Octree, OctreeStats};
 use super::{crease, criteria};
 use crate::cancel::{Cancel, Cancelled, uncancelled};
@@ -439,10 +439,7 @@ impl<'a, E: Evaluator + ?Sized> Builder<'a, E> {
         }
         self.tree
             .clear_false_ambiguity(self.f, self.opts, &self.ambiguous, long);
-        // The points after the build: see the module doc's "Pruning".
-        if !self.budget.open {
-            self.tree.tapes.clear();
-        }
+        tape::keep_for_points(&mut self.tree.tapes, self.full_len, !self.budget.open);
         self.tree.stats = OctreeStats::over(&self.tree.nodes);
         self.tree
     }

@@ -92,13 +92,13 @@
 //! the budget lasted to the end: a model whose programs shrink fast then
 //! never compiles the given evaluator's point kernels either. Once a
 //! level's long programs went to the given evaluator, its kernels serve
-//! every point: a point gradient costs the interpreter about ten times
-//! what it costs the JIT's two-point kernel per instruction, so even a
-//! short program (an eighth of the full one) is no cheaper interpreted,
-//! with the leaf's descent on top (`docs/faithful.md`, session 58). Both
-//! evaluate a point to the same bits but where the full program overflows
-//! inside a dropped branch (see [`Field`]), so elsewhere the choice
-//! changes no mesh.
+//! the points too, but in the leaves whose programs are at most
+//! `1/POINT_RATIO` of the full one: a point gradient costs the
+//! interpreter about ten times what it costs the JIT's two-point kernel
+//! per instruction, and the leaf's descent comes on top
+//! (`docs/faithful.md`, session 58). Both evaluate a point to the same
+//! bits but where the full program overflows inside a dropped branch (see
+//! [`Field`]), so elsewhere the choice changes no mesh.
 //!
 //! Before the proof search on an ambiguous leaf, a sign change among the
 //! point values at its centre, at one Newton step from the centre and at

@@ -28,6 +28,54 @@ pub(super) const INTERPRET_BUDGET: u64 = 512;
 /// program.
 pub(super) const STORE_LIMIT: u64 = 1 << 23;
 
+/// After a build that gave some level's long programs to the given
+/// evaluator, the points ([`keep_for_points`]) keep the leaves' programs
+/// of at most `1/POINT_RATIO` of the full program's instructions. A point
+/// gradient costs the reference interpreter 6-9 ns an instruction, the
+/// JIT's two-point kernel 0.6-1.4 ns and its one-point kernel 1.3-5 ns
+/// (random CSG scenes, colonnade.vm): about ten and five times less; the
+/// leaf's descent comes on top. Measured in `docs/faithful.md`, session
+/// 58.
+pub(super) const POINT_RATIO: usize = 16;
+
+/// Keeps, of the leaves' pruned programs `tapes`, those that the points
+/// are evaluated with after the build ([`super::Field`]; see
+/// [`Octree::tapes`]): every one when the interpretation budget lasted to
+/// the end (`compiled` false: on this model, by the budget's own measure,
+/// compiling the given evaluator's kernels does not pay, and a model
+/// whose programs shrink fast then never compiles its point kernels
+/// either); else, those kernels being in use, only the programs of at
+/// most `1/POINT_RATIO` of the full program's `full_len` instructions,
+/// and none at all (an empty vector, which the field passes by without
+/// looking for a point's leaf) when no leaf has one.
+///
+/// A brick's tree decides on its own leaves, with the whole run's budget
+/// (it closes, or not, before a brick's tree parts from the whole run's).
+/// So where the full program overflows inside a branch its pruned one
+/// dropped (the one case in which their point values differ, see
+/// [`prune`]), a brick's point there may differ from the whole run's.
+///
+/// [`Octree::tapes`]: super::Octree::tapes
+pub(super) fn keep_for_points(
+    tapes: &mut Vec<Option<Arc<Reference>>>,
+    full_len: usize,
+    compiled: bool,
+) {
+    if !compiled {
+        return;
+    }
+    for t in tapes.iter_mut() {
+        if t.as_ref()
+            .is_some_and(|r| r.0.insts.len() * POINT_RATIO > full_len)
+        {
+            *t = None;
+        }
+    }
+    if tapes.iter().all(Option::is_none) {
+        tapes.clear();
+    }
+}
+
 /// Whether a pruned program of `len` instructions is short enough for the
 /// interpreters, against the full program's `full_len`
 /// ([`INTERPRET_RATIO`]).
@@ -174,15 +222,45 @@ mod tests {
     use super::*;
     use crate::testing::surface;
 
-    /// The points after the build keep the leaves' pruned programs only
-    /// while the interpretation budget lasts. Where a `min`'s choice is
-    /// never certain (two branches that differ by `1e-12`), every cell
-    /// keeps the full program, too long to interpret: the budget closes
-    /// on the first levels of hundreds of cells, the kernels of the given
-    /// evaluator serve the rest of the build, and no tape is kept. Where
-    /// the programs shrink fast (a sphere among far balls, which never
-    /// win), the budget lasts and every surface leaf keeps its short
-    /// program.
+    /// With the budget closed, the points keep the programs of at most
+    /// `1/POINT_RATIO` of the full program's length (at the limit too),
+    /// and none at all, the vector emptied, when no leaf has one; with
+    /// the budget open, every program.
+    #[test]
+    fn points_keep_only_programs_that_beat_the_kernels() {
+        let program = |src: &str| Some(Arc::new(Reference(surface(src).program)));
+        let short = program("domain [-1, 1]^3; surface x - 0.5;");
+        let long = program("domain [-1, 1]^3; surface sqrt(x^2 + y^2 + z^2) - 0.5;");
+        let len = |t: &Option<Arc<Reference>>| t.as_ref().map_or(0, |r| r.0.insts.len());
+        // The short one exactly at the limit.
+        let full = POINT_RATIO * len(&short);
+        assert!(len(&long) * POINT_RATIO > full);
+        let tapes = vec![short.clone(), long.clone(), None, long.clone()];
+        let mut open = tapes.clone();
+        keep_for_points(&mut open, full, false);
+        assert_eq!(
+            open.iter().map(len).collect::<Vec<_>>(),
+            tapes.iter().map(len).collect::<Vec<_>>()
+        );
+        let mut closed = tapes.clone();
+        keep_for_points(&mut closed, full, true);
+        assert_eq!(
+            closed.iter().map(len).collect::<Vec<_>>(),
+            vec![len(&short), 0, 0, 0]
+        );
+        let mut none = vec![long.clone(), None];
+        keep_for_points(&mut none, full, true);
+        assert!(none.is_empty());
+    }
+
+    /// The builds that decide [`keep_for_points`]'s `compiled`. Where a
+    /// `min`'s choice is never certain (two branches that differ by
+    /// `1e-12`), every cell keeps the full program, too long to interpret:
+    /// the budget closes on the first levels of hundreds of cells, the
+    /// kernels of the given evaluator serve the rest of the build and the
+    /// points, and no tape is kept. Where the programs shrink fast (a
+    /// sphere among far balls, which never win), the budget lasts and
+    /// every surface leaf keeps its short program.
     #[test]
     fn tapes_are_kept_for_points_while_the_budget_lasts() {
         let opts = crate::OctreeOptions {
