@@ -94,7 +94,7 @@
 //! level's long programs went to the given evaluator, its kernels serve
 //! the points too, but in the leaves whose programs are at most
 //! `1/POINT_RATIO` of the full one: a point gradient costs the
-//! interpreter about ten times what it costs the JIT's two-point kernel
+//! interpreter 6 to 11 times what it costs the JIT's two-point kernel
 //! per instruction, and the leaf's descent comes on top
 //! (`docs/faithful.md`, session 58). Both evaluate a point to the same
 //! bits but where the full program overflows inside a dropped branch (see

@@ -10,8 +10,13 @@ use crate::interval::Interval;
 use crate::ir::Program;
 
 /// A pruned program is run by the reference interpreters once it has at
-/// most `1/INTERPRET_RATIO` of the full program's instructions (the JIT is
-/// roughly this many times faster per instruction; see `docs/jit.md`).
+/// most `1/INTERPRET_RATIO` of the full program's instructions. The JIT's
+/// batch kernels are faster than that per instruction: 20 to 34 times on
+/// an interval, 11 to 45 times on an interval gradient (random CSG
+/// scenes, colonnade.vm; `docs/faithful.md`, session 58). But the ratio
+/// also decides what the budget below is spent on: at 16 and 32,
+/// colonnade.vm's octree took 1.08 and 1.56 times as long (its budget
+/// then closes), where a random CSG scene's took at best 0.84 times.
 pub(super) const INTERPRET_RATIO: usize = 8;
 
 /// With pruning, cells whose program is still long are interpreted too,
@@ -31,11 +36,11 @@ pub(super) const STORE_LIMIT: u64 = 1 << 23;
 /// After a build that gave some level's long programs to the given
 /// evaluator, the points ([`keep_for_points`]) keep the leaves' programs
 /// of at most `1/POINT_RATIO` of the full program's instructions. A point
-/// gradient costs the reference interpreter 6-9 ns an instruction, the
-/// JIT's two-point kernel 0.6-1.4 ns and its one-point kernel 1.3-5 ns
-/// (random CSG scenes, colonnade.vm): about ten and five times less; the
-/// leaf's descent comes on top. Measured in `docs/faithful.md`, session
-/// 58.
+/// gradient costs the reference interpreter 5.6-8.7 ns an instruction,
+/// the JIT's two-point kernel 0.6-1.4 ns and its one-point kernel 0.9-3.2
+/// ns (random CSG scenes, colonnade.vm, heart): 6 to 11 and 3 to 7 times
+/// less; the leaf's descent comes on top. Measured in `docs/faithful.md`,
+/// session 58.
 pub(super) const POINT_RATIO: usize = 16;
 
 /// Keeps, of the leaves' pruned programs `tapes`, those that the points
