@@ -23,9 +23,10 @@
 //! # Limits
 //!
 //! The interpreter evaluates one point at a time; it pays where pruning
-//! made the programs much shorter than the full one and the given
-//! evaluator's point kernels are not compiled, which is when the octree
-//! keeps them (see the octree's "Pruning").
+//! made the programs much shorter than the full one (a sixteenth, against
+//! the JIT's point kernels), or where the given evaluator's point kernels
+//! are never compiled: those are the programs the octree keeps (see the
+//! octree's "Pruning").
 
 use glam::DVec3;
 

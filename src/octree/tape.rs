@@ -265,7 +265,8 @@ mod tests {
     /// kernels of the given evaluator serve the rest of the build and the
     /// points, and no tape is kept. Where the programs shrink fast (a
     /// sphere among far balls, which never win), the budget lasts and
-    /// every surface leaf keeps its short program.
+    /// every surface leaf keeps its short program, also where it is more
+    /// than `1/POINT_RATIO` of the full one.
     #[test]
     fn tapes_are_kept_for_points_while_the_budget_lasts() {
         let opts = crate::OctreeOptions {
@@ -287,8 +288,8 @@ mod tests {
              fn ball(x, y, z, c) = sqrt((x - c)^2 + y^2 + z^2) - 1; \
              fn four(x, y, z, c) = min(min(ball(x, y, z, c), ball(x, y, z, c + 2)), \
                  min(ball(x, y, z, c + 4), ball(x, y, z, c + 6))); \
-             surface min(x^2 + y^2 + z^2 - 0.5, min(min(four(x, y, z, 5), four(x, y, z, 13)), \
-                 min(four(x, y, z, 21), four(x, y, z, 29))));",
+             surface min(x^2 + y^2 + z^2 - 0.5, \
+                 min(four(x, y, z, 5), min(four(x, y, z, 13), four(x, y, z, 21))));",
         );
         let leaves = shrunk
             .nodes
@@ -299,7 +300,11 @@ mod tests {
         for (i, _) in leaves {
             let tape = shrunk.tapes.get(i).and_then(|t| t.as_ref());
             let len = tape.map_or(full, |t| t.0.insts.len());
-            assert!(short(len, full), "leaf {i}: {len} of {full} instructions");
+            // Short, and longer than the closed budget's points keep.
+            assert!(
+                short(len, full) && len * POINT_RATIO > full,
+                "leaf {i}: {len} of {full} instructions"
+            );
             kept += 1;
         }
         assert!(kept > 100, "{kept} surface leaves");
