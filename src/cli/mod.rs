@@ -326,6 +326,7 @@ fn compile(args: &SourceArgs, emit: Option<Emit>, out: &mut dyn Write) -> Result
             };
             let kernels = isoc::jit::Kernels::lazy(&surface.program, &opts)?;
             kernels.prepare(&isoc::jit::Kind::EVERY);
+            kernels.prepare_second_tier();
             let mut s = String::new();
             for info in &kernels.info() {
                 let text = if kind == Emit::Clif {

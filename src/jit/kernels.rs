@@ -21,7 +21,8 @@
 //! does not depend on when the switch happens. A small model never pays
 //! for the second compile; a large one, or a surface meshed again (an
 //! animation, a library user's loop), runs its point gradients about
-//! twice as fast.
+//! twice as fast. `compile --emit` compiles the second at once
+//! ([`Kernels::prepare_second_tier`]) to list it.
 
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -365,16 +366,41 @@ impl Kernels {
         let after = self.opts.point_grad_wide_after;
         if n >= 2 && self.opts.simd && after != usize::MAX {
             let seen = self.pgrad_points.fetch_add(n, Ordering::Relaxed) + n;
-            if seen > after && !self.pgrad_wide_started.swap(true, Ordering::Relaxed) {
-                let wide = self
-                    .pgrad_wide
-                    .get_or_init(|| self.compile_kind(Kind::PointGrad, &self.opts));
-                if let Ok(e) = wide {
-                    return Ok(e.batch);
-                }
+            if seen > after
+                && !self.pgrad_wide_started.swap(true, Ordering::Relaxed)
+                && let Ok(e) = self.pgrad_wide_k()
+            {
+                return Ok(e.batch);
             }
         }
         self.pgrad_k().map(|k| k.batch)
+    }
+
+    /// The point gradient's second tier, compiled on the first call
+    /// (`pgrad_batch_for` and [`Kernels::prepare_second_tier`] decide
+    /// when); its entry point is named `point_grad_batch_x2`.
+    fn pgrad_wide_k(&self) -> Result<&Entry<(), PointGradBatchFn>, JitError> {
+        let r = self.pgrad_wide.get_or_init(|| {
+            let mut e: Entry<(), PointGradBatchFn> =
+                self.compile_kind(Kind::PointGrad, &self.opts)?;
+            for i in &mut e.info {
+                i.name = "point_grad_batch_x2";
+            }
+            Ok(e)
+        });
+        r.as_ref().map_err(Clone::clone)
+    }
+
+    /// Compiles the point gradient's second tier now, as `compile --emit`
+    /// lists it, unless the options never use it (`simd` off, or
+    /// [`JitOptions::point_grad_wide_after`] at `usize::MAX`); later
+    /// batches of two or more points use it at once. Failures are
+    /// remembered, and the first tier serves.
+    pub fn prepare_second_tier(&self) {
+        if self.opts.simd && self.opts.point_grad_wide_after != usize::MAX {
+            self.pgrad_wide_started.store(true, Ordering::Relaxed);
+            let _ = self.pgrad_wide_k();
+        }
     }
 
     /// Info on every entry point compiled so far (name, code size, compile

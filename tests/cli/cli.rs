@@ -145,6 +145,34 @@ fn emit_ir_round_trips_through_the_text_form() {
     assert!(text.contains("const 0.1 ["), "{text}");
 }
 
+/// `--emit asm` and `--emit clif` list every kernel the JIT may run, the
+/// point gradient's two tiers among them (the second one named apart),
+/// each with its text.
+#[test]
+fn emit_lists_both_point_gradient_tiers() {
+    let f = temp_file(
+        "tiers.iso",
+        b"domain [-1, 1]^3;\nsurface min(x^2 + y^2 + z^2 - 0.5, x + 0.25);\n",
+    );
+    for stage in ["asm", "clif"] {
+        let o = isoc(&["compile", f.to_str().unwrap(), "--emit", stage]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = stdout(&o);
+        for name in ["point_grad_batch", "point_grad_batch_x2"] {
+            let header = format!("; ---- {name} ----\n");
+            let at = text
+                .find(&header)
+                .unwrap_or_else(|| panic!("{stage}: no {name} in\n{text}"));
+            let body = &text[at + header.len()..];
+            let body = &body[..body.find("; ----").unwrap_or(body.len())];
+            assert!(
+                body.len() > 100 && !body.contains("(not available)"),
+                "{stage}: {name}: {body}"
+            );
+        }
+    }
+}
+
 #[test]
 fn emit_ast_prints_something_for_every_statement() {
     let f = temp_file(
