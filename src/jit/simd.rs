@@ -9,8 +9,9 @@
 //! `fmin`/`fmax` propagate NaN and order `-0 < +0`), `a / ±0` is NaN by
 //! a lane mask (`fcmp eq` + `bitselect`), `powi` is the same
 //! multiplication chain per lane, and the ops that call a helper extract
-//! both lanes, call the scalar helper twice and rebuild the vector. So every lane is bit for bit the scalar
-//! kernel's value (NaN payloads aside: a NaN is a NaN).
+//! both lanes, call the scalar helper twice and rebuild the vector. So
+//! every lane is bit for bit the scalar kernel's value (NaN payloads
+//! aside: a NaN is a NaN).
 //!
 //! The loop ([`emit_loop`]): while at least two points remain, load two
 //! `x`, `y`, `z` (unaligned), evaluate, store two results (a kind with

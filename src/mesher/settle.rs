@@ -155,8 +155,9 @@ pub fn settle<E: Evaluator + ?Sized>(
 }
 
 /// The `targets` (vertex, target, reach, goal) projected onto `f(·, t) =
-/// 0` (a Newton walk each, in lock-step batches), the shape moves among them held
-/// within `tau` ([`within_chord`]): (vertex, position, unit normal, goal).
+/// 0` (a Newton walk each, in lock-step batches), the shape moves among
+/// them held within `tau` ([`within_chord`]): (vertex, position, unit
+/// normal, goal).
 fn candidates<E: Evaluator + ?Sized>(
     mesh: &Mesh,
     star: &Star,
