@@ -29,7 +29,15 @@
 //! turn (a kink, not a bend), onto the line where those two sides' planes
 //! meet and again onto `f = 0`; the split is made when no new triangle
 //! turns against its corners' normals and the fans of the four vertices
-//! around it still face along their normals. The new vertex is a crease
+//! around it still face along their normals. A crease split that folds
+//! alone may still be made with the others of its group: the crease
+//! splits joined through the triangles they share, cut all at once as the
+//! round cuts them (a chamfer, a triangle with a corner on one side of the
+//! crease and two on the other, at both of its crossing edges: its corner
+//! triangle on one side, its quad on the other), when no piece turns
+//! against its old corners' normals (against their mean where they lie on
+//! either side of a crease) and their fans still face along their normals
+//! ([`grouped`]). The new vertex is a crease
 //! vertex with one side's normal, so its edges are not split again.
 //!
 //! Every split vertex is shared
@@ -340,15 +348,31 @@ fn splits<E: Evaluator + ?Sized>(
         Marked::default()
     };
     let (edges, boundary) = inner_edges(mesh, &star, feature, part, (fresh, &marked));
-    let mut out: Vec<Split> = edges
+    // Per chunk of edges, the far ones and their crease splits (one that
+    // folds alone waits for its group: [`grouped`]).
+    let measured: Vec<(Vec<Far>, Vec<Option<CreaseSplit>>)> = edges
         .par_chunks(EDGES_PER_TASK)
-        .flat_map_iter(|chunk| {
+        .map(|chunk| {
             let far = far_edges(mesh, chunk, f, t, tau, &marked);
             let onto = if rules.creases {
                 onto_creases(mesh, &star, &far, f, t)
             } else {
                 vec![None; far.len()]
             };
+            (far, onto)
+        })
+        .collect();
+    let grouped = grouped(mesh, &star, &measured);
+    let mut out: Vec<Split> = measured
+        .into_par_iter()
+        .flat_map_iter(|(far, onto)| {
+            let onto: Vec<Option<Split>> = onto
+                .into_iter()
+                .map(|c| {
+                    c.filter(|c| c.alone || grouped.contains(&c.split.edge))
+                        .map(|c| c.split)
+                })
+                .collect();
             // The others from their midpoints, in the order of the edges.
             let rest: Vec<Far> = far
                 .iter()
@@ -510,7 +534,7 @@ fn onto_creases<E: Evaluator + ?Sized>(
     far: &[Far],
     f: &E,
     t: f64,
-) -> Vec<Option<Split>> {
+) -> Vec<Option<CreaseSplit>> {
     let (p, n) = (&mesh.positions, &mesh.normals);
     let onto = |((ea, eb), mid, reach): Far| {
         let (a, b) = (
@@ -532,28 +556,219 @@ fn onto_creases<E: Evaluator + ?Sized>(
             sides[0].1.normalize() + sides[1].1.normalize(),
             reach,
         )?;
-        unfolded(mesh, star, (ea, eb), q).then_some(q)
+        Some((q, unfolded(mesh, star, (ea, eb), q)))
     };
-    // Per far edge that landed, its index and (edge, new vertex).
+    // Per far edge that landed, its index, (edge, new vertex) and whether
+    // it folds nothing alone.
+    let mut alone = Vec::new();
     let (index, landed): (Vec<usize>, Vec<OnEdge>) = far
         .iter()
         .enumerate()
-        .filter_map(|(i, &e)| onto(e).map(|q| (i, (e.0, q))))
+        .filter_map(|(i, &e)| {
+            onto(e).map(|(q, ok)| {
+                alone.push(ok);
+                (i, (e.0, q))
+            })
+        })
         .unzip();
     let gs = oriented_grads(f, t, &landed, n);
     let mut out = vec![None; far.len()];
-    for ((i, (edge, at)), grad) in index.into_iter().zip(landed).zip(gs) {
+    for (((i, (edge, at)), grad), alone) in index.into_iter().zip(landed).zip(gs).zip(alone) {
         let (na, nb) = (n[edge.0 as usize], n[edge.1 as usize]);
         if grad.is_finite() && grad.dot(na + nb) > 0.0 {
-            out[i] = Some(Split {
-                edge,
-                at,
-                grad,
-                crease: true,
+            out[i] = Some(CreaseSplit {
+                split: Split {
+                    edge,
+                    at,
+                    grad,
+                    crease: true,
+                },
+                alone,
             });
         }
     }
     out
+}
+
+/// A split onto a crease, and whether it folds nothing on its own
+/// ([`unfolded`]).
+#[derive(Clone, Copy)]
+struct CreaseSplit {
+    split: Split,
+    alone: bool,
+}
+
+/// The edges of the crease splits that fold something alone but nothing
+/// together with the crease splits of the triangles around them (see the
+/// module doc): the crease splits joined through the triangles they share
+/// form groups, and a group of at most [`MAX_GROUP`] splits, each with two
+/// triangles, is made whole when [`together`] holds. A group is a function
+/// of the mesh, so the result does not depend on the order of the edges;
+/// an edge on a brick's seam (one triangle in the part) keeps its group
+/// from being made.
+fn grouped(
+    mesh: &Mesh,
+    star: &Star,
+    measured: &[(Vec<Far>, Vec<Option<CreaseSplit>>)],
+) -> HashSet<(u32, u32)> {
+    let all: Vec<CreaseSplit> = measured
+        .iter()
+        .flat_map(|(_, onto)| onto.iter().flatten().copied())
+        .collect();
+    let mut out = HashSet::default();
+    if all.iter().all(|c| c.alone) {
+        return out;
+    }
+    let index: HashMap<(u32, u32), usize> = all
+        .iter()
+        .enumerate()
+        .map(|(i, c)| (c.split.edge, i))
+        .collect();
+    let triangles = |(a, b): (u32, u32)| -> SmallVec<[u32; 2]> {
+        star.of(a as usize)
+            .iter()
+            .copied()
+            .filter(|&ti| mesh.triangles[ti as usize].contains(&b))
+            .collect()
+    };
+    let mut sets = Sets::new(all.len());
+    for (i, c) in all.iter().enumerate() {
+        for ti in triangles(c.split.edge) {
+            for e in sides(mesh.triangles[ti as usize]) {
+                if let Some(&j) = index.get(&e) {
+                    sets.join(i, j);
+                }
+            }
+        }
+    }
+    let mut groups: HashMap<usize, Vec<usize>> = HashMap::default();
+    for i in 0..all.len() {
+        groups.entry(sets.root(i)).or_default().push(i);
+    }
+    for members in groups.values() {
+        if members.iter().all(|&i| all[i].alone) || members.len() > MAX_GROUP {
+            continue;
+        }
+        let cuts: Vec<OnEdge> = members
+            .iter()
+            .map(|&i| (all[i].split.edge, all[i].split.at))
+            .collect();
+        let around: Vec<SmallVec<[u32; 2]>> = cuts.iter().map(|&(e, _)| triangles(e)).collect();
+        if around.iter().any(|t| t.len() != 2) {
+            continue;
+        }
+        let mut tris: Vec<u32> = around.into_iter().flatten().collect();
+        tris.sort_unstable();
+        tris.dedup();
+        if together(mesh, star, &tris, &cuts) {
+            out.extend(
+                members
+                    .iter()
+                    .filter(|&&i| !all[i].alone)
+                    .map(|&i| all[i].split.edge),
+            );
+        }
+    }
+    out
+}
+
+/// The most crease splits [`grouped`] decides together.
+const MAX_GROUP: usize = 64;
+
+/// The sides of triangle `t`, each smaller index first.
+fn sides(t: [u32; 3]) -> [(u32, u32); 3] {
+    [0, 1, 2].map(|k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])))
+}
+
+/// Disjoint sets of indices (union-find with path halving).
+struct Sets(Vec<usize>);
+
+impl Sets {
+    fn new(n: usize) -> Sets {
+        Sets((0..n).collect())
+    }
+
+    fn root(&mut self, mut i: usize) -> usize {
+        while self.0[i] != i {
+            self.0[i] = self.0[self.0[i]];
+            i = self.0[i];
+        }
+        i
+    }
+
+    fn join(&mut self, i: usize, j: usize) {
+        let (a, b) = (self.root(i), self.root(j));
+        self.0[a] = b;
+    }
+}
+
+/// Whether splitting the edges of `cuts` at their points, all at once,
+/// folds nothing in the triangles `tris` around them, re-cut as the round
+/// cuts them ([`pieces`]): each piece is not degenerate and faces along
+/// the normals at its old corners (along their mean where they lie on
+/// either side of a crease, past [`SPLIT_DEG`]; along the old triangle's
+/// corners' where it has none), and the fans of those corners still face
+/// along their normals (as [`unfolded`] asks of one split).
+fn together(mesh: &Mesh, star: &Star, tris: &[u32], cuts: &[OnEdge]) -> bool {
+    let (p, n) = (&mesh.positions, &mesh.normals);
+    let fresh = p.len() as u32;
+    let at = |v: u32| match v.checked_sub(fresh) {
+        Some(i) => cuts[i as usize].1,
+        None => p[v as usize],
+    };
+    let d2 = |a: u32, b: u32| at(a).distance_squared(at(b));
+    let area = |t: [u32; 3]| (at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0]));
+    let cos_split = SPLIT_DEG.to_radians().cos();
+    let mut fans: Vec<(u32, DVec3)> = Vec::new();
+    let mut change = |u: u32, by: DVec3| match fans.iter_mut().find(|(v, _)| *v == u) {
+        Some((_, s)) => *s += by,
+        None => {
+            let fan: DVec3 = star
+                .of(u as usize)
+                .iter()
+                .map(|&ti| area(mesh.triangles[ti as usize]))
+                .sum();
+            fans.push((u, fan + by));
+        }
+    };
+    for &ti in tris {
+        let t = mesh.triangles[ti as usize];
+        let m = sides(t).map(|e| {
+            cuts.iter()
+                .position(|&(c, _)| c == e)
+                .map(|i| fresh + i as u32)
+        });
+        let (pieces, count) = pieces(t, m, d2);
+        let old = area(t);
+        let scale = old.length();
+        for &v in &t {
+            change(v, -old);
+        }
+        for &piece in &pieces[..count] {
+            let nt = area(piece);
+            let mut corners: SmallVec<[u32; 3]> =
+                piece.iter().copied().filter(|&v| v < fresh).collect();
+            if corners.is_empty() {
+                corners.extend(t);
+            }
+            let normals = corners.iter().map(|&v| n[v as usize]);
+            let one_side = normals
+                .clone()
+                .all(|a| normals.clone().all(|b| a.dot(b) > cos_split));
+            let faces = if one_side {
+                normals.clone().all(|c| nt.dot(c) > 0.0)
+            } else {
+                nt.dot(normals.clone().sum::<DVec3>()) > 0.0
+            };
+            if !faces || nt.length() <= 1e-9 * scale {
+                return false;
+            }
+            for &v in piece.iter().filter(|&&v| v < fresh) {
+                change(v, nt);
+            }
+        }
+    }
+    fans.iter().all(|&(u, s)| s.dot(n[u as usize]) > 0.0)
 }
 
 /// The midpoint of the edge `a–b`, given its ends' positions and unit

@@ -484,6 +484,96 @@ fn a_chamfer_is_split_onto_its_crease() {
     assert_eq!((n, mesh.positions.len()), (0, 4));
 }
 
+/// A strip of chamfers along the crease of `max(x − 0.013, y − 0.021)`:
+/// corners alternately on the face `x = 0.013` (normal +x) and on the face
+/// `y = 0.021` (normal +y), each face's row offset along the crease from
+/// the other's. Split alone, an edge from a corner on x's face to the
+/// corner on y's face just below it folds (the chamfer piece left beside
+/// the new crease point turns against the +x normal), so before session 59
+/// the round left those chamfers; split together with the strip's other
+/// crossing edges (`mesher::chord`'s groups), every triangle's two
+/// crossing edges are cut at once and the crease becomes a polyline. The
+/// interior crossing edges are all split, no triangle is left with
+/// corners on both faces, and none turns over.
+#[test]
+fn a_strip_of_chamfers_is_split_onto_its_crease_together() {
+    let wedge = surface("domain [-1, 1]^3; surface max(x - 0.013, y - 0.021) = 0;");
+    let (d, step, shift, n) = (0.05, 0.1, -0.03, 6);
+    let on_x = |i: usize| DVec3::new(0.013, 0.021 - d, step * i as f64);
+    let on_y = |i: usize| DVec3::new(0.013 - d, 0.021, step * i as f64 + shift);
+    let mut positions: Vec<DVec3> = (0..=n).map(on_x).collect();
+    positions.extend((0..n).map(on_y));
+    let (a, b) = (|i: usize| i as u32, |i: usize| (n + 1 + i) as u32);
+    let mut triangles: Vec<[u32; 3]> = (0..n).map(|i| [a(i), b(i), a(i + 1)]).collect();
+    triangles.extend((0..n - 1).map(|i| [b(i), b(i + 1), a(i + 1)]));
+    let strip = isoc::Mesh {
+        normals: (0..positions.len())
+            .map(|i| if i <= n { DVec3::X } else { DVec3::Y })
+            .collect(),
+        ambiguous: vec![false; positions.len()],
+        positions,
+        triangles,
+    };
+    let (mut mesh, mut feature) = (strip.clone(), Vec::new());
+    isoc::mesher::chord::split_edges_in(
+        &mut mesh,
+        &mut feature,
+        None,
+        &wedge,
+        0.0,
+        isoc::octree::Chord::uniform(1e-4),
+        isoc::mesher::chord::Rules::ALL,
+        &isoc::Cancel::new(),
+    )
+    .expect("never cancelled");
+    // The crossing edges with two triangles: from x's corner i to y's
+    // corners i and i − 1, for 0 < i < n.
+    let crossing = 2 * (n - 1);
+    let creases = feature.iter().filter(|&&c| c).count();
+    assert_eq!(creases, crossing, "crease points");
+    for &q in &mesh.positions[strip.positions.len()..] {
+        assert!(
+            (q.x - 0.013).abs() < 1e-9 && (q.y - 0.021).abs() < 1e-9,
+            "{q}"
+        );
+    }
+    let chamfers = mesh
+        .triangles
+        .iter()
+        .filter(|t| {
+            let old: Vec<DVec3> = t
+                .iter()
+                .filter(|&&v| !feature[v as usize])
+                .map(|&v| mesh.normals[v as usize])
+                .collect();
+            old.contains(&DVec3::X) && old.contains(&DVec3::Y)
+        })
+        .count();
+    // The strip's two ends keep theirs: an edge with one triangle is not
+    // split onto a crease.
+    assert!(
+        chamfers <= 2,
+        "{chamfers} chamfers left: {:?}",
+        mesh.triangles
+    );
+    for t in &mesh.triangles {
+        let area = mesh.face_normal(*t);
+        assert!(
+            area.dot(DVec3::new(1.0, 1.0, 0.0)) > 0.0,
+            "{t:?} turned over"
+        );
+        for &v in t.iter().filter(|&&v| !feature[v as usize]) {
+            let one_side = t
+                .iter()
+                .filter(|&&w| !feature[w as usize])
+                .all(|&w| mesh.normals[w as usize] == mesh.normals[v as usize]);
+            if one_side {
+                assert!(area.dot(mesh.normals[v as usize]) > 0.0, "{t:?} faces away");
+            }
+        }
+    }
+}
+
 /// A box and a ball in a smooth union, drilled by a cylinder along y
 /// whose rim meets the box's slanted faces at 53° where it runs along z
 /// (its sides' normals turn by 127°): there the wedge is thinner than a
