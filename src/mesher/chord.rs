@@ -83,7 +83,9 @@ use smallvec::SmallVec;
 use crate::cancel::{Cancel, Cancelled};
 use crate::eval::Evaluator;
 use crate::eval::sample::{grads_at, orient_at_kinks};
+use crate::mesh::dynmesh::key;
 use crate::mesh::origin::Origins;
+use crate::mesh::topology::UnionFind;
 use crate::mesh::{Mesh, Star};
 use crate::octree::Chord;
 use crate::octree::criteria::turn;
@@ -631,19 +633,19 @@ fn grouped(
             .filter(|&ti| mesh.triangles[ti as usize].contains(&b))
             .collect()
     };
-    let mut sets = Sets::new(all.len());
+    let mut sets = UnionFind((0..all.len() as u32).collect());
     for (i, c) in all.iter().enumerate() {
         for ti in triangles(c.split.edge) {
             for e in sides(mesh.triangles[ti as usize]) {
                 if let Some(&j) = index.get(&e) {
-                    sets.join(i, j);
+                    sets.union(i as u32, j as u32);
                 }
             }
         }
     }
-    let mut groups: HashMap<usize, Vec<usize>> = HashMap::default();
+    let mut groups: HashMap<u32, Vec<usize>> = HashMap::default();
     for i in 0..all.len() {
-        groups.entry(sets.root(i)).or_default().push(i);
+        groups.entry(sets.find(i as u32)).or_default().push(i);
     }
     for members in groups.values() {
         if members.iter().all(|&i| all[i].alone) || members.len() > MAX_GROUP {
@@ -677,29 +679,7 @@ const MAX_GROUP: usize = 64;
 
 /// The sides of triangle `t`, each smaller index first.
 fn sides(t: [u32; 3]) -> [(u32, u32); 3] {
-    [0, 1, 2].map(|k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])))
-}
-
-/// Disjoint sets of indices (union-find with path halving).
-struct Sets(Vec<usize>);
-
-impl Sets {
-    fn new(n: usize) -> Sets {
-        Sets((0..n).collect())
-    }
-
-    fn root(&mut self, mut i: usize) -> usize {
-        while self.0[i] != i {
-            self.0[i] = self.0[self.0[i]];
-            i = self.0[i];
-        }
-        i
-    }
-
-    fn join(&mut self, i: usize, j: usize) {
-        let (a, b) = (self.root(i), self.root(j));
-        self.0[a] = b;
-    }
+    [0, 1, 2].map(|k| key(t[k], t[(k + 1) % 3]))
 }
 
 /// Whether splitting the edges of `cuts` at their points, all at once,
