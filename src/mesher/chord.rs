@@ -43,9 +43,10 @@
 //! Every split vertex is shared
 //! by the edge's triangles, so the mesh stays conforming: topology,
 //! closedness and orientation are kept, a boundary edge stays on the
-//! boundary. The decision depends on the edge and its triangles, the new
-//! vertex on the edge alone, so the result does not depend on the order of
-//! the edges. Edges with a
+//! boundary. The decision depends on the edge and its triangles (a crease
+//! split's that folds alone, on its group's triangles), the new vertex on
+//! the edge alone, so the result does not depend on the order of the
+//! edges. Edges with a
 //! crease vertex for an end ([`super::crease`]) are left alone: between
 //! two, the midpoint is off the crease; from one, a split changes the fan
 //! of a crease point, whose normal is one side's and at a corner of three
