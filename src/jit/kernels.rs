@@ -363,10 +363,9 @@ impl Kernels {
         if let Some(Ok(e)) = self.pgrad_wide.get() {
             return Ok(e.batch);
         }
-        let after = self.opts.point_grad_wide_after;
-        if n >= 2 && self.opts.simd && after != usize::MAX {
+        if n >= 2 && self.second_tier_used() {
             let seen = self.pgrad_points.fetch_add(n, Ordering::Relaxed) + n;
-            if seen > after
+            if seen > self.opts.point_grad_wide_after
                 && !self.pgrad_wide_started.swap(true, Ordering::Relaxed)
                 && let Ok(e) = self.pgrad_wide_k()
             {
@@ -391,13 +390,20 @@ impl Kernels {
         r.as_ref().map_err(Clone::clone)
     }
 
+    /// Whether the options ever use the point gradient's second tier:
+    /// `simd` on and [`JitOptions::point_grad_wide_after`] not
+    /// `usize::MAX`.
+    fn second_tier_used(&self) -> bool {
+        self.opts.simd && self.opts.point_grad_wide_after != usize::MAX
+    }
+
     /// Compiles the point gradient's second tier now, as `compile --emit`
     /// lists it, unless the options never use it (`simd` off, or
     /// [`JitOptions::point_grad_wide_after`] at `usize::MAX`); later
     /// batches of two or more points use it at once. Failures are
     /// remembered, and the first tier serves.
     pub fn prepare_second_tier(&self) {
-        if self.opts.simd && self.opts.point_grad_wide_after != usize::MAX {
+        if self.second_tier_used() {
             self.pgrad_wide_started.store(true, Ordering::Relaxed);
             let _ = self.pgrad_wide_k();
         }

@@ -700,18 +700,7 @@ fn together(mesh: &Mesh, star: &Star, tris: &[u32], cuts: &[OnEdge]) -> bool {
     let d2 = |a: u32, b: u32| at(a).distance_squared(at(b));
     let area = |t: [u32; 3]| (at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0]));
     let cos_split = SPLIT_DEG.to_radians().cos();
-    let mut fans: Vec<(u32, DVec3)> = Vec::new();
-    let mut change = |u: u32, by: DVec3| match fans.iter_mut().find(|(v, _)| *v == u) {
-        Some((_, s)) => *s += by,
-        None => {
-            let fan: DVec3 = star
-                .of(u as usize)
-                .iter()
-                .map(|&ti| area(mesh.triangles[ti as usize]))
-                .sum();
-            fans.push((u, fan + by));
-        }
-    };
+    let mut fans = Fans::new(mesh, star);
     for &ti in tris {
         let t = mesh.triangles[ti as usize];
         let m = sides(t).map(|e| {
@@ -723,7 +712,7 @@ fn together(mesh: &Mesh, star: &Star, tris: &[u32], cuts: &[OnEdge]) -> bool {
         let old = area(t);
         let scale = old.length();
         for &v in &t {
-            change(v, -old);
+            fans.change(v, -old);
         }
         for &piece in &pieces[..count] {
             let nt = area(piece);
@@ -745,11 +734,11 @@ fn together(mesh: &Mesh, star: &Star, tris: &[u32], cuts: &[OnEdge]) -> bool {
                 return false;
             }
             for &v in piece.iter().filter(|&&v| v < fresh) {
-                change(v, nt);
+                fans.change(v, nt);
             }
         }
     }
-    fans.iter().all(|&(u, s)| s.dot(n[u as usize]) > 0.0)
+    fans.face_along_normals()
 }
 
 /// The midpoint of the edge `a–b`, given its ends' positions and unit
@@ -851,17 +840,7 @@ fn on_kink(
 fn unfolded(mesh: &Mesh, star: &Star, (a, b): (u32, u32), q: DVec3) -> bool {
     let (p, n) = (&mesh.positions, &mesh.normals);
     let area = |t: [DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]);
-    let fan = |u: u32| -> DVec3 {
-        star.of(u as usize)
-            .iter()
-            .map(|&ti| area(mesh.triangles[ti as usize].map(|v| p[v as usize])))
-            .sum()
-    };
-    let mut fans: SmallVec<[(u32, DVec3); 4]> = SmallVec::new();
-    let mut change = |u: u32, by: DVec3| match fans.iter_mut().find(|(v, _)| *v == u) {
-        Some((_, s)) => *s += by,
-        None => fans.push((u, fan(u) + by)),
-    };
+    let mut fans = Fans::new(mesh, star);
     let mut sides = 0;
     for &ti in star.of(a as usize) {
         let t = mesh.triangles[ti as usize];
@@ -878,11 +857,54 @@ fn unfolded(mesh: &Mesh, star: &Star, (a, b): (u32, u32), q: DVec3) -> bool {
         if !faces(x, first) || !faces(y, second) {
             return false;
         }
-        change(x, first - old);
-        change(y, second - old);
-        change(c, first + second - old);
+        fans.change(x, first - old);
+        fans.change(y, second - old);
+        fans.change(c, first + second - old);
     }
-    sides == 2 && fans.iter().all(|&(u, s)| s.dot(n[u as usize]) > 0.0)
+    sides == 2 && fans.face_along_normals()
+}
+
+/// The area normals of the fans of the vertices whose triangles some
+/// splits re-cut (the sum of their triangles' right-hand normals), each
+/// from its fan in the mesh plus what [`Fans::change`] adds: what
+/// [`unfolded`] and [`together`] ask to keep facing along the vertices'
+/// normals.
+struct Fans<'a> {
+    mesh: &'a Mesh,
+    star: &'a Star,
+    sums: SmallVec<[(u32, DVec3); 8]>,
+}
+
+impl<'a> Fans<'a> {
+    fn new(mesh: &'a Mesh, star: &'a Star) -> Fans<'a> {
+        Fans {
+            mesh,
+            star,
+            sums: SmallVec::new(),
+        }
+    }
+
+    /// Adds `by` to the fan of vertex `u`.
+    fn change(&mut self, u: u32, by: DVec3) {
+        match self.sums.iter_mut().find(|(v, _)| *v == u) {
+            Some((_, s)) => *s += by,
+            None => {
+                let fan: DVec3 = self
+                    .star
+                    .of(u as usize)
+                    .iter()
+                    .map(|&ti| self.mesh.face_normal(self.mesh.triangles[ti as usize]))
+                    .sum();
+                self.sums.push((u, fan + by));
+            }
+        }
+    }
+
+    /// Whether every changed fan faces along its vertex's normal.
+    fn face_along_normals(&self) -> bool {
+        let n = &self.mesh.normals;
+        self.sums.iter().all(|&(u, s)| s.dot(n[u as usize]) > 0.0)
+    }
 }
 
 /// The edges (smaller index first, sorted) with no end on a crease,
